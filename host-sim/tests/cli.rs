@@ -1,0 +1,85 @@
+//! The command-line tool, as a user runs it.
+
+use std::process::Command;
+
+fn hollowpath() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hollowpath"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("hollowpath-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn plan_writes_mcls_json_and_svg() {
+    let out = tmp("plan");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    let st = hollowpath().args(["plan", slice, "--out"]).arg(&out).output().unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("mcls.json")).unwrap()).unwrap();
+    let mcls = doc["mcls"].as_array().unwrap();
+    assert!(mcls.len() > 100);
+    let mut to_wall = 0;
+    let mut to_hole = 0;
+    for m in mcls {
+        assert!(m["from"].as_u64().unwrap() < 2);
+        match &m["to"] {
+            serde_json::Value::String(s) => {
+                assert_eq!(s, "wall");
+                to_wall += 1
+            }
+            serde_json::Value::Number(n) => {
+                assert!(n.as_u64().unwrap() < 2);
+                to_hole += 1
+            }
+            other => panic!("bad to: {other}"),
+        }
+        let pts = m["points"].as_array().unwrap();
+        assert!(pts.len() >= 2 && pts.iter().all(|p| p.as_array().unwrap().len() == 2));
+    }
+    assert!(to_wall > 0 && to_hole > 0);
+    assert_eq!(doc["bisectors"].as_array().unwrap().len(), 1);
+    assert_eq!(doc["branch_points"].as_array().unwrap().len(), 2);
+    let svg = std::fs::read_to_string(out.join("mcls.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert_eq!(svg.matches("linearGradient id=").count(), mcls.len());
+    // The same slice through the library gives the same digest.
+    let f = host_sim::slice_file::load(std::path::Path::new(slice)).unwrap();
+    let planner = host_sim::plan(&f.slice).unwrap();
+    assert_eq!(doc["digest"], format!("{:016x}", planner.last_plan().digest()));
+}
+
+#[test]
+fn demo_runs_on_the_built_in_slice() {
+    let out = tmp("demo");
+    let st = hollowpath().args(["demo", "--out"]).arg(&out).output().unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(String::from_utf8_lossy(&st.stdout).contains("four_holes"));
+    assert!(out.join("mcls.svg").is_file() && out.join("mcls.json").is_file());
+}
+
+#[test]
+fn an_invalid_slice_exits_non_zero_with_one_line() {
+    let dir = tmp("invalid");
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"outer": {"points": [[0,0],[10,0],[10,10],[0,10]], "material": [1,0,0,0]},
+            "holes": [{"points": [[2,2],[3,2],[3,3]], "material": [0,1,0,0]},
+                      {"points": [[2.5,2.1],[5,2],[5,5]], "material": [0,1,0,0]}]}"#,
+    )
+    .unwrap();
+    let st = hollowpath().args(["plan"]).arg(&bad).arg("--out").arg(dir.join("o")).output().unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("holes 0 and 1 overlap"), "{err}");
+    assert!(!dir.join("o").exists(), "output written for an invalid slice");
+    let st = hollowpath().args(["plan", "/nonexistent/slice.json"]).output().unwrap();
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("cannot read"));
+}

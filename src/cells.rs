@@ -1,0 +1,284 @@
+//! Voronoi cells of the hollow features: the bisectors between them and the branch points.
+//!
+//! The cell of hole `i` is the part of the printable region nearer to hole `i` than to any
+//! other hole (distances to the polygons, not to points). The [`Field`] labels grid nodes by
+//! cell; wherever two neighbouring nodes belong to different cells a bisector passes between
+//! them. From such a seed the bisector `d_i = d_j` is traced both ways by predictor-corrector
+//! steps (a step along the tangent, then Newton steps back onto `d_i - d_j = 0`) until it
+//! reaches the wall's keep-out boundary or a third cell: those ends are the branch points.
+
+use heapless::Vec;
+
+use crate::config::{BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS};
+use crate::field::{Field, KEEP_OUT};
+use crate::geometry::{polygon, polyline, Point};
+use crate::{Error, Limit, Slice};
+
+/// The boundary between the cells of holes `a < b`, as a polyline from one branch point to the
+/// other.
+///
+/// ```
+/// # use hollowpath::{cells::Bisector, geometry::Point};
+/// let b = Bisector { a: 0, b: 1, points: heapless::Vec::from_slice(&[Point::new(0.0, -1.0), Point::new(0.0, 1.0)]).unwrap() };
+/// assert_eq!(b.length(), 2.0);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bisector {
+    /// The lower hole index.
+    pub a: u8,
+    /// The higher hole index.
+    pub b: u8,
+    /// The polyline.
+    pub points: Vec<Point, BISECTOR_POINTS>,
+}
+
+impl Bisector {
+    /// Arc length.
+    pub fn length(&self) -> f32 {
+        polyline::length(&self.points)
+    }
+}
+
+/// Bisectors and branch points of a slice.
+#[derive(Clone, Debug, Default)]
+pub struct Cells {
+    /// The bisector pieces, in the order they were found (by grid node).
+    pub bisectors: Vec<Bisector, MAX_BISECTORS>,
+    /// Where three cells meet or a bisector meets the wall.
+    pub branch_points: Vec<Point, MAX_BRANCH_POINTS>,
+}
+
+#[derive(Clone, Copy)]
+struct Seed {
+    a: u8,
+    b: u8,
+    at: Point,
+    used: bool,
+}
+
+/// Unit vector away from the nearest point of hole `i` (the gradient of the distance).
+pub(crate) fn away_from_hole(slice: &Slice, i: usize, p: Point) -> (Point, f32) {
+    let h = &slice.holes()[i];
+    let (c, d, _) = polygon::closest(h.points(), p);
+    let n = (p - c).normalized();
+    if h.signed_distance(p) < 0.0 {
+        (-n, -d)
+    } else {
+        (n, d)
+    }
+}
+
+/// Finds where `f` changes sign between `p` (`f(p) > 0`) and `q` (`f(q) <= 0`).
+pub(crate) fn bisect(p: Point, q: Point, mut f: impl FnMut(Point) -> f32) -> Point {
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..24 {
+        let mid = 0.5 * (lo + hi);
+        if f(p.lerp(q, mid)) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    p.lerp(q, 0.5 * (lo + hi))
+}
+
+impl Cells {
+    /// An empty decomposition.
+    pub const fn new() -> Cells {
+        Cells {
+            bisectors: Vec::new(),
+            branch_points: Vec::new(),
+        }
+    }
+
+    /// Traces every bisector of the labelled field.
+    pub fn build(
+        &mut self,
+        slice: &Slice,
+        field: &Field,
+        scratch: &mut Vec<Point, TRACE_POINTS>,
+    ) -> Result<(), Error> {
+        self.bisectors.clear();
+        self.branch_points.clear();
+        let grid = *field.grid();
+        let mut seeds: Vec<Seed, BISECTOR_SEEDS> = Vec::new();
+        for k in 0..grid.len() {
+            let la = field.label(k);
+            if la >= KEEP_OUT {
+                continue;
+            }
+            for nb in [k + 1, k + grid.nx] {
+                if nb >= grid.len() {
+                    continue;
+                }
+                let lb = field.label(nb);
+                if lb < KEEP_OUT && lb != la {
+                    let (p, q) = (grid.node(k), grid.node(nb));
+                    let (a, b) = (la.min(lb), la.max(lb));
+                    let g = |x: Point| {
+                        slice.holes()[a as usize].signed_distance(x)
+                            - slice.holes()[b as usize].signed_distance(x)
+                    };
+                    // g < 0 on a's side.
+                    let (p, q) = if la == a { (q, p) } else { (p, q) };
+                    let at = bisect(p, q, g);
+                    seeds
+                        .push(Seed {
+                            a,
+                            b,
+                            at,
+                            used: false,
+                        })
+                        .map_err(|_| Error::Capacity {
+                            limit: Limit::BisectorSeeds,
+                            feature: None,
+                        })?;
+                }
+            }
+        }
+        let w = slice.settings().road_width;
+        let step = 0.5 * grid.h.min(w);
+        for s in 0..seeds.len() {
+            if seeds[s].used {
+                continue;
+            }
+            let (a, b) = (seeds[s].a as usize, seeds[s].b as usize);
+            let start = seeds[s].at;
+            scratch.clear();
+            let back_end = march(slice, a, b, start, -1.0, step, scratch)?;
+            scratch.reverse();
+            push_point(scratch, start)?;
+            let fwd_end = march(slice, a, b, start, 1.0, step, scratch)?;
+            let mut bis = Bisector {
+                a: a as u8,
+                b: b as u8,
+                points: Vec::new(),
+            };
+            let mut tol = 0.002;
+            while polyline::simplify(scratch, tol, &mut bis.points).is_err() {
+                tol *= 2.0;
+                if tol > 0.1 {
+                    return Err(Error::Capacity {
+                        limit: Limit::BisectorPoints,
+                        feature: None,
+                    });
+                }
+            }
+            for seed in seeds.iter_mut() {
+                if seed.a as usize == a
+                    && seed.b as usize == b
+                    && polyline::project(scratch, seed.at).2 < 1.5 * grid.h
+                {
+                    seed.used = true;
+                }
+            }
+            if bis.points.len() < 2 || bis.length() < 0.5 * step {
+                continue;
+            }
+            for (end, is_branch) in [
+                (bis.points[0], back_end),
+                (bis.points[bis.points.len() - 1], fwd_end),
+            ] {
+                if is_branch && !self.branch_points.iter().any(|q| q.dist(end) < 0.05) {
+                    self.branch_points.push(end).map_err(|_| Error::Capacity {
+                        limit: Limit::BranchPoints,
+                        feature: None,
+                    })?;
+                }
+            }
+            self.bisectors.push(bis).map_err(|_| Error::Capacity {
+                limit: Limit::Bisectors,
+                feature: None,
+            })?;
+        }
+        debug!(
+            "cells: {} bisectors, {} branch points",
+            self.bisectors.len(),
+            self.branch_points.len()
+        );
+        Ok(())
+    }
+
+    /// The bisector pieces between holes `a` and `b` (any order), with their indices.
+    pub fn between(&self, a: usize, b: usize) -> impl Iterator<Item = (usize, &Bisector)> {
+        let (a, b) = (a.min(b) as u8, a.max(b) as u8);
+        self.bisectors
+            .iter()
+            .enumerate()
+            .filter(move |(_, x)| x.a == a && x.b == b)
+    }
+}
+
+fn push_point(buf: &mut Vec<Point, TRACE_POINTS>, p: Point) -> Result<(), Error> {
+    buf.push(p).map_err(|_| Error::Capacity {
+        limit: Limit::TracePoints,
+        feature: None,
+    })
+}
+
+/// Marches along the bisector of holes `a`, `b` from `start` in direction `sign`, appending
+/// points. Returns whether it ended at a branch point (rather than closing on itself).
+fn march(
+    slice: &Slice,
+    a: usize,
+    b: usize,
+    start: Point,
+    sign: f32,
+    step: f32,
+    out: &mut Vec<Point, TRACE_POINTS>,
+) -> Result<bool, Error> {
+    let half = 0.5 * slice.settings().road_width;
+    let mut p = start;
+    let mut prev_t: Option<Point> = None;
+    for n in 0..TRACE_POINTS {
+        let (na, _) = away_from_hole(slice, a, p);
+        let (nb, _) = away_from_hole(slice, b, p);
+        let mut t = (na - nb).perp().normalized() * sign;
+        if let Some(pt) = prev_t {
+            if t.dot(pt) < 0.0 {
+                t = -t;
+            }
+        }
+        prev_t = Some(t);
+        let mut q = p + t * step;
+        for _ in 0..3 {
+            let (na, da) = away_from_hole(slice, a, q);
+            let (nb, db) = away_from_hole(slice, b, q);
+            let gr = na - nb;
+            let g2 = gr.norm2();
+            if g2 < 1e-8 {
+                break;
+            }
+            q = q - gr * ((da - db) / g2);
+        }
+        // Leaving the wall's printable region: a branch point on the wall.
+        if slice.wall_clearance(q) < half {
+            let e = bisect(p, q, |x| slice.wall_clearance(x) - half);
+            push_point(out, e)?;
+            return Ok(true);
+        }
+        // Entering a third cell: a branch point of three cells.
+        let third = |x: Point| {
+            let d = |c: usize| slice.holes()[c].signed_distance(x);
+            let nearest_third = (0..slice.holes().len())
+                .filter(|&c| c != a && c != b)
+                .map(d)
+                .fold(f32::INFINITY, f32::min);
+            nearest_third - d(a).max(d(b))
+        };
+        if third(q) <= 0.0 {
+            let e = bisect(p, q, third);
+            push_point(out, e)?;
+            return Ok(true);
+        }
+        if n > 3 && q.dist(start) < 0.5 * step {
+            return Ok(false);
+        }
+        push_point(out, q)?;
+        p = q;
+    }
+    Err(Error::Capacity {
+        limit: Limit::TracePoints,
+        feature: None,
+    })
+}

@@ -1,0 +1,298 @@
+//! The one error type of the core.
+
+use core::fmt;
+
+/// Which feature of a slice an error is about.
+///
+/// ```
+/// use hollowpath::FeatureId;
+/// assert_eq!(format!("{}", FeatureId::Hole(2)), "hole 2");
+/// assert_eq!(format!("{}", FeatureId::Wall), "the wall");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FeatureId {
+    /// The outer wall.
+    Wall,
+    /// Hollow feature `i`, counted from 0 in the order of the slice file.
+    Hole(u8),
+}
+
+impl fmt::Display for FeatureId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FeatureId::Wall => f.write_str("the wall"),
+            FeatureId::Hole(i) => write!(f, "hole {i}"),
+        }
+    }
+}
+
+/// A setting of the slice, named in [`Error::InvalidSetting`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SettingId {
+    /// `road_width`
+    RoadWidth,
+    /// `layer_height`
+    LayerHeight,
+    /// `w_n`
+    WeightNormal,
+    /// `w_d`
+    WeightDistance,
+    /// `delta`
+    Delta,
+    /// `mcl_spacing`
+    MclSpacing,
+    /// `relax_spacing`
+    RelaxSpacing,
+}
+
+impl SettingId {
+    /// The key of the setting in a slice file.
+    pub const fn key(self) -> &'static str {
+        match self {
+            SettingId::RoadWidth => "road_width",
+            SettingId::LayerHeight => "layer_height",
+            SettingId::WeightNormal => "w_n",
+            SettingId::WeightDistance => "w_d",
+            SettingId::Delta => "delta",
+            SettingId::MclSpacing => "mcl_spacing",
+            SettingId::RelaxSpacing => "relax_spacing",
+        }
+    }
+}
+
+/// A fixed capacity of the core (see [`config`](crate::config)), named in [`Error::Capacity`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Limit {
+    /// [`MAX_HOLES`](crate::config::MAX_HOLES)
+    Holes,
+    /// [`MAX_VERTICES`](crate::config::MAX_VERTICES)
+    Vertices,
+    /// [`GRID_NODES`](crate::config::GRID_NODES)
+    GridNodes,
+    /// [`BOUNDARY_NODES`](crate::config::BOUNDARY_NODES)
+    BoundaryNodes,
+    /// [`MAX_BISECTORS`](crate::config::MAX_BISECTORS)
+    Bisectors,
+    /// [`BISECTOR_POINTS`](crate::config::BISECTOR_POINTS)
+    BisectorPoints,
+    /// [`MAX_BRANCH_POINTS`](crate::config::MAX_BRANCH_POINTS)
+    BranchPoints,
+    /// [`BISECTOR_SEEDS`](crate::config::BISECTOR_SEEDS)
+    BisectorSeeds,
+    /// [`MAX_HALVES`](crate::config::MAX_HALVES)
+    Halves,
+    /// [`TRACE_POINTS`](crate::config::TRACE_POINTS)
+    TracePoints,
+    /// [`MAX_MCLS`](crate::config::MAX_MCLS)
+    Mcls,
+}
+
+impl Limit {
+    /// The configured value of the limit.
+    pub const fn value(self) -> usize {
+        use crate::config::*;
+        match self {
+            Limit::Holes => MAX_HOLES,
+            Limit::Vertices => MAX_VERTICES,
+            Limit::GridNodes => GRID_NODES,
+            Limit::BoundaryNodes => BOUNDARY_NODES,
+            Limit::Bisectors => MAX_BISECTORS,
+            Limit::BisectorPoints => BISECTOR_POINTS,
+            Limit::BranchPoints => MAX_BRANCH_POINTS,
+            Limit::BisectorSeeds => BISECTOR_SEEDS,
+            Limit::Halves => MAX_HALVES,
+            Limit::TracePoints => TRACE_POINTS,
+            Limit::Mcls => MAX_MCLS,
+        }
+    }
+
+    const fn what(self) -> &'static str {
+        match self {
+            Limit::Holes => "hollow features",
+            Limit::Vertices => "vertices in one polygon",
+            Limit::GridNodes => "field grid nodes",
+            Limit::BoundaryNodes => "field nodes next to a boundary",
+            Limit::Bisectors => "bisector pieces",
+            Limit::BisectorPoints => "points in one bisector",
+            Limit::BranchPoints => "branch points",
+            Limit::BisectorSeeds => "bisector seeds",
+            Limit::Halves => "traced MCL halves",
+            Limit::TracePoints => "points in one traced MCL",
+            Limit::Mcls => "material changing lines",
+        }
+    }
+}
+
+/// Everything that can go wrong between a slice and its plan.
+///
+/// Small and `Copy`; [`Display`](core::fmt::Display) gives the one-line reason the host tool
+/// prints.
+///
+/// ```
+/// use hollowpath::{Error, FeatureId};
+/// let e = Error::TooFewPoints { feature: FeatureId::Hole(1), distinct: 2 };
+/// assert_eq!(e.to_string(), "hole 1: only 2 distinct points, a polygon needs at least 3");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// A polygon has fewer than three distinct points.
+    TooFewPoints {
+        /// The polygon.
+        feature: FeatureId,
+        /// How many distinct points it has.
+        distinct: u16,
+    },
+    /// A coordinate is NaN or infinite.
+    NonFinite {
+        /// The polygon.
+        feature: FeatureId,
+        /// Index of the vertex in the input.
+        vertex: u16,
+    },
+    /// A coordinate is beyond [`MAX_COORD_MM`](crate::config::MAX_COORD_MM).
+    OutOfRange {
+        /// The polygon.
+        feature: FeatureId,
+        /// Index of the vertex in the input.
+        vertex: u16,
+    },
+    /// A polygon encloses (almost) no area.
+    ZeroArea {
+        /// The polygon.
+        feature: FeatureId,
+    },
+    /// Two edges of one polygon cross or touch.
+    SelfIntersection {
+        /// The polygon.
+        feature: FeatureId,
+        /// First edge (from vertex `edge_a` to the next).
+        edge_a: u16,
+        /// Second edge.
+        edge_b: u16,
+    },
+    /// A vertex of a hollow feature lies on or outside the wall.
+    HoleOutsideWall {
+        /// The hollow feature.
+        hole: u8,
+        /// The vertex outside.
+        vertex: u16,
+    },
+    /// An edge of a hollow feature crosses or touches the wall.
+    HoleCrossesWall {
+        /// The hollow feature.
+        hole: u8,
+        /// Its edge that meets the wall.
+        edge: u16,
+        /// The wall's edge.
+        wall_edge: u16,
+    },
+    /// Two hollow features cross or touch.
+    HolesOverlap {
+        /// The first feature.
+        a: u8,
+        /// The second feature.
+        b: u8,
+    },
+    /// A hollow feature lies inside another one.
+    HolesNested {
+        /// The enclosing feature.
+        outer: u8,
+        /// The enclosed feature.
+        inner: u8,
+    },
+    /// A material fraction is negative or not finite.
+    MaterialNegative {
+        /// The feature.
+        feature: FeatureId,
+        /// The channel.
+        channel: u8,
+    },
+    /// Material fractions do not sum to 1.
+    MaterialSum {
+        /// The feature.
+        feature: FeatureId,
+        /// What they sum to.
+        sum: f32,
+    },
+    /// A setting is out of its range.
+    InvalidSetting {
+        /// The setting.
+        setting: SettingId,
+        /// The offending value.
+        value: f32,
+    },
+    /// The slice has no hollow feature: there is nothing to decompose into cells.
+    NoHoles,
+    /// A fixed capacity was exceeded.
+    Capacity {
+        /// Which capacity.
+        limit: Limit,
+        /// The feature concerned, where there is one.
+        feature: Option<FeatureId>,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Error::TooFewPoints { feature, distinct } => write!(
+                f,
+                "{feature}: only {distinct} distinct points, a polygon needs at least 3"
+            ),
+            Error::NonFinite { feature, vertex } => {
+                write!(f, "{feature}: vertex {vertex} has a coordinate that is not a finite number")
+            }
+            Error::OutOfRange { feature, vertex } => write!(
+                f,
+                "{feature}: vertex {vertex} lies beyond {} mm of the origin",
+                crate::config::MAX_COORD_MM
+            ),
+            Error::ZeroArea { feature } => write!(f, "{feature}: the polygon encloses no area"),
+            Error::SelfIntersection { feature, edge_a, edge_b } => write!(
+                f,
+                "{feature}: edges {edge_a} and {edge_b} intersect (self-intersecting polygon)"
+            ),
+            Error::HoleOutsideWall { hole, vertex } => write!(
+                f,
+                "hole {hole}: vertex {vertex} is not strictly inside the wall"
+            ),
+            Error::HoleCrossesWall { hole, edge, wall_edge } => write!(
+                f,
+                "hole {hole}: edge {edge} meets wall edge {wall_edge} (not strictly inside the wall)"
+            ),
+            Error::HolesOverlap { a, b } => write!(f, "holes {a} and {b} overlap"),
+            Error::HolesNested { outer, inner } => {
+                write!(f, "hole {inner} lies inside hole {outer} (nested holes)")
+            }
+            Error::MaterialNegative { feature, channel } => write!(
+                f,
+                "{feature}: material fraction of channel {channel} is negative or not finite"
+            ),
+            Error::MaterialSum { feature, sum } => {
+                write!(f, "{feature}: material fractions sum to {sum}, not 1")
+            }
+            Error::InvalidSetting { setting, value } => {
+                write!(f, "setting {}: {value} is out of range", setting.key())
+            }
+            Error::NoHoles => f.write_str("the slice has no hollow feature to plan around"),
+            Error::Capacity { limit, feature } => {
+                if let Some(feature) = feature {
+                    write!(f, "{feature}: ")?;
+                }
+                write!(
+                    f,
+                    "capacity exceeded: more than {} {}",
+                    limit.value(),
+                    limit.what()
+                )
+            }
+        }
+    }
+}
+
+impl core::error::Error for Error {}

@@ -1,0 +1,294 @@
+//! The cell labels and the harmonic field that MCLs follow.
+//!
+//! One grid covers the slice. Every node is labelled: outside the printable region of the wall,
+//! in the keep-out band of hole `i` (within half a road width of it), or free in the Voronoi
+//! cell of hole `i` (nearest to hole `i` among the holes). In every cell the field `u` solves
+//! Laplace's equation with `u = 0` on the hole's keep-out boundary and `u = 1` on the cell
+//! boundary (the bisectors and the wall's keep-out boundary). Boundaries that fall between
+//! nodes are placed exactly (Shortley-Weller arms, from the signed distances), so the field is
+//! second-order accurate up to the boundary.
+//!
+//! The streamlines of `u` (its gradient lines) run from the hole to the cell boundary, never
+//! cross each other, fan out into concave pockets and reach the boundary at right angles: they
+//! are the material changing lines before matching.
+
+use heapless::Vec;
+
+use crate::config::{
+    BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES,
+    GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
+};
+use crate::geometry::{Grid, Point};
+use crate::{Error, Limit, Slice};
+
+/// Label of a node outside the wall's printable region.
+pub const OUTSIDE: u8 = 0xFF;
+/// Flag of a node in a hole's keep-out band (the low bits give the hole).
+pub const KEEP_OUT: u8 = 0x40;
+
+/// Arms of a node: +x, -x, +y, -y.
+const ARMS: [(isize, isize); 4] = [(1, 0), (-1, 0), (0, 1), (0, -1)];
+
+/// A node next to a boundary: the fraction of each arm up to the boundary (0 = a regular arm),
+/// quantised to 1/255, and which boundaries hold `u = 1`.
+#[derive(Clone, Copy, Debug, Default)]
+struct BoundaryNode {
+    node: u16,
+    theta: [u8; 4],
+    one: u8,
+}
+
+/// Labels and harmonic field over the slice.
+pub struct Field {
+    grid: Grid,
+    labels: Vec<u8, GRID_NODES>,
+    u: Vec<f32, GRID_NODES>,
+    boundary: Vec<BoundaryNode, BOUNDARY_NODES>,
+    sweeps: u32,
+    residual: f32,
+}
+
+impl Default for Field {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Field {
+    /// An empty field (no allocation: the buffers are inline).
+    pub const fn new() -> Field {
+        Field {
+            grid: Grid {
+                origin: Point::new(0.0, 0.0),
+                h: 1.0,
+                nx: 0,
+                ny: 0,
+            },
+            labels: Vec::new(),
+            u: Vec::new(),
+            boundary: Vec::new(),
+            sweeps: 0,
+            residual: 0.0,
+        }
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+    /// Label of node `k`: a hole index for a free node, [`KEEP_OUT`]` | i`, or [`OUTSIDE`].
+    pub fn label(&self, k: usize) -> u8 {
+        self.labels[k]
+    }
+    /// Sweeps the last solve took and the largest change in its last sweep.
+    pub fn convergence(&self) -> (u32, f32) {
+        (self.sweeps, self.residual)
+    }
+
+    /// Labels every node and precomputes the boundary arms; sets a first guess of `u` from the
+    /// distances (the solve then needs far fewer sweeps).
+    pub fn label_nodes(&mut self, slice: &Slice) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let (lo, hi) = slice.wall().bbox();
+        self.grid = Grid::covering(lo, hi, w * GRID_SPACING_PER_ROAD, GRID_NODES);
+        if self.grid.h > MAX_GRID_SPACING_PER_ROAD * w {
+            // Too coarse to resolve the cells at this road width.
+            return Err(Error::Capacity {
+                limit: Limit::GridNodes,
+                feature: None,
+            });
+        }
+        self.labels.clear();
+        self.u.clear();
+        self.boundary.clear();
+        let half = 0.5 * w;
+        for k in 0..self.grid.len() {
+            let p = self.grid.node(k);
+            let wc = slice.wall_clearance(p) - half;
+            let (label, u0) = if wc < 0.0 {
+                (OUTSIDE, 1.0)
+            } else {
+                let (i, di, _, dj) = slice.nearest_holes(p);
+                if di < half {
+                    (KEEP_OUT | i as u8, 0.0)
+                } else {
+                    let a = di - half;
+                    let b = wc.min(0.5 * (dj - di));
+                    (i as u8, a / (a + b).max(1e-6))
+                }
+            };
+            // Capacity: the grid was sized to fit.
+            let _ = self.labels.push(label);
+            let _ = self.u.push(u0);
+        }
+        for k in 0..self.grid.len() {
+            let i = self.labels[k];
+            if i >= KEEP_OUT {
+                continue;
+            }
+            let mut entry = BoundaryNode {
+                node: k as u16,
+                ..BoundaryNode::default()
+            };
+            let mut irregular = false;
+            for (a, &(dx, dy)) in ARMS.iter().enumerate() {
+                let nb = self.neighbour(k, dx, dy);
+                let l = self.labels[nb];
+                if l == i {
+                    continue;
+                }
+                irregular = true;
+                let (p, q) = (self.grid.node(k), self.grid.node(nb));
+                let (phi_p, phi_q, one) = boundary_levels(slice, i as usize, l, p, q, half);
+                let theta = if phi_p - phi_q > 0.0 {
+                    phi_p / (phi_p - phi_q)
+                } else {
+                    1.0
+                };
+                entry.theta[a] = (libm::roundf(theta.clamp(0.05, 1.0) * 255.0) as u8).max(1);
+                if one {
+                    entry.one |= 1 << a;
+                }
+            }
+            if irregular {
+                self.boundary.push(entry).map_err(|_| Error::Capacity {
+                    limit: Limit::BoundaryNodes,
+                    feature: None,
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    fn neighbour(&self, k: usize, dx: isize, dy: isize) -> usize {
+        (k as isize + dx + dy * self.grid.nx as isize) as usize
+    }
+
+    /// Solves Laplace's equation by successive over-relaxation until no node moves more than
+    /// [`FIELD_TOLERANCE`] or [`FIELD_MAX_SWEEPS`] have run.
+    pub fn solve(&mut self) {
+        let n = self.grid.len();
+        let nx = self.grid.nx;
+        let mut sweeps = 0;
+        let mut residual = f32::INFINITY;
+        while sweeps < FIELD_MAX_SWEEPS && residual > FIELD_TOLERANCE {
+            residual = 0.0;
+            let mut cursor = 0;
+            for k in 0..n {
+                if self.labels[k] >= KEEP_OUT {
+                    continue;
+                }
+                let target = if cursor < self.boundary.len() && self.boundary[cursor].node as usize == k
+                {
+                    let b = self.boundary[cursor];
+                    cursor += 1;
+                    self.weighted_average(k, &b)
+                } else {
+                    0.25 * (self.u[k + 1] + self.u[k - 1] + self.u[k + nx] + self.u[k - nx])
+                };
+                let old = self.u[k];
+                let new = old + FIELD_OMEGA * (target - old);
+                self.u[k] = new;
+                residual = residual.max(libm::fabsf(new - old));
+            }
+            sweeps += 1;
+        }
+        self.sweeps = sweeps;
+        self.residual = residual;
+    }
+
+    /// Arm lengths (in grid spacings) and end values of node `k`.
+    fn arms(&self, k: usize, b: Option<&BoundaryNode>) -> [(f32, f32); 4] {
+        let mut out = [(1.0, 0.0); 4];
+        for (a, &(dx, dy)) in ARMS.iter().enumerate() {
+            out[a] = match b {
+                Some(b) if b.theta[a] != 0 => (
+                    b.theta[a] as f32 / 255.0,
+                    if b.one & (1 << a) != 0 { 1.0 } else { 0.0 },
+                ),
+                _ => (1.0, self.u[self.neighbour(k, dx, dy)]),
+            };
+        }
+        out
+    }
+
+    fn weighted_average(&self, k: usize, b: &BoundaryNode) -> f32 {
+        let arms = self.arms(k, Some(b));
+        let mut num = 0.0;
+        let mut den = 0.0;
+        for pair in [(0, 1), (2, 3)] {
+            let (tp, vp) = arms[pair.0];
+            let (tm, vm) = arms[pair.1];
+            let ap = 2.0 / (tp * (tp + tm));
+            let am = 2.0 / (tm * (tp + tm));
+            num += ap * vp + am * vm;
+            den += ap + am;
+        }
+        num / den
+    }
+
+    fn boundary_entry(&self, k: usize) -> Option<&BoundaryNode> {
+        self.boundary
+            .binary_search_by_key(&(k as u16), |b| b.node)
+            .ok()
+            .map(|i| &self.boundary[i])
+    }
+
+    /// Gradient of `u` at free node `k` (central differences over the arms).
+    fn node_gradient(&self, k: usize) -> Point {
+        let arms = self.arms(k, self.boundary_entry(k));
+        let h = self.grid.h;
+        Point::new(
+            (arms[0].1 - arms[1].1) / ((arms[0].0 + arms[1].0) * h),
+            (arms[2].1 - arms[3].1) / ((arms[2].0 + arms[3].0) * h),
+        )
+    }
+
+    /// The field's gradient at `p` in the cell of hole `cell`, interpolated from the free nodes
+    /// of that cell around `p`; `None` where no such node is near.
+    pub fn gradient(&self, p: Point, cell: usize) -> Option<Point> {
+        let (i, j, fx, fy) = self.grid.locate(p)?;
+        let corners = [
+            (self.grid.index(i, j), (1.0 - fx) * (1.0 - fy)),
+            (self.grid.index(i + 1, j), fx * (1.0 - fy)),
+            (self.grid.index(i, j + 1), (1.0 - fx) * fy),
+            (self.grid.index(i + 1, j + 1), fx * fy),
+        ];
+        let mut g = Point::default();
+        let mut wsum = 0.0;
+        for (k, wk) in corners {
+            if self.labels[k] as usize == cell && wk > 0.0 {
+                g = g + self.node_gradient(k) * wk;
+                wsum += wk;
+            }
+        }
+        if wsum < 1e-3 {
+            None
+        } else {
+            Some(g * (1.0 / wsum))
+        }
+    }
+
+    /// The field value at free node `k`.
+    pub fn value(&self, k: usize) -> f32 {
+        self.u[k]
+    }
+}
+
+/// Level values at `p` (inside the cell of hole `i`) and at its neighbour `q` (labelled
+/// `l`) of the function that vanishes on the boundary between them, and whether `u = 1` there.
+fn boundary_levels(slice: &Slice, i: usize, l: u8, p: Point, q: Point, half: f32) -> (f32, f32, bool) {
+    let hole = |k: usize, x: Point| slice.holes()[k].signed_distance(x);
+    if l == OUTSIDE {
+        (
+            slice.wall_clearance(p) - half,
+            slice.wall_clearance(q) - half,
+            true,
+        )
+    } else if l == KEEP_OUT | i as u8 {
+        (hole(i, p) - half, hole(i, q) - half, false)
+    } else {
+        let j = (l & !KEEP_OUT) as usize;
+        (hole(j, p) - hole(i, p), hole(j, q) - hole(i, q), true)
+    }
+}

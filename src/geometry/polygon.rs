@@ -1,0 +1,161 @@
+//! Closed polygons given as point slices (the closing edge implied).
+
+use super::polyline::closest_on_segment;
+use super::Point;
+
+/// Twice the signed area: positive for counter-clockwise.
+pub fn double_area(pts: &[Point]) -> f32 {
+    let n = pts.len();
+    let mut a = 0.0;
+    for i in 0..n {
+        a += pts[i].cross(pts[(i + 1) % n]);
+    }
+    a
+}
+
+/// Length of the closed boundary.
+pub fn perimeter(pts: &[Point]) -> f32 {
+    let n = pts.len();
+    (0..n).map(|i| pts[i].dist(pts[(i + 1) % n])).sum()
+}
+
+/// Even-odd point-in-polygon test.
+///
+/// ```
+/// use hollowpath::geometry::{polygon, Point};
+/// let sq = [Point::new(0.0, 0.0), Point::new(1.0, 0.0), Point::new(1.0, 1.0), Point::new(0.0, 1.0)];
+/// assert!(polygon::contains(&sq, Point::new(0.5, 0.5)));
+/// assert!(!polygon::contains(&sq, Point::new(1.5, 0.5)));
+/// ```
+pub fn contains(pts: &[Point], p: Point) -> bool {
+    let n = pts.len();
+    let mut inside = false;
+    let mut j = n - 1;
+    for i in 0..n {
+        let (a, b) = (pts[i], pts[j]);
+        if (a.y > p.y) != (b.y > p.y) {
+            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+            if p.x < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
+}
+
+/// The closest point of the boundary to `p`: (point, distance, edge index).
+pub fn closest(pts: &[Point], p: Point) -> (Point, f32, usize) {
+    let n = pts.len();
+    let mut best = (pts[0], f32::INFINITY, 0);
+    let mut best_d2 = f32::INFINITY;
+    for i in 0..n {
+        let (c, _) = closest_on_segment(pts[i], pts[(i + 1) % n], p);
+        let d2 = (c - p).norm2();
+        if d2 < best_d2 {
+            best_d2 = d2;
+            best = (c, 0.0, i);
+        }
+    }
+    best.1 = libm::sqrtf(best_d2);
+    best
+}
+
+/// Orientation of `c` relative to the line `a -> b`: >0 left, <0 right.
+pub fn orient(a: Point, b: Point, c: Point) -> f32 {
+    (b - a).cross(c - a)
+}
+
+/// Whether the closed segments `ab` and `cd` share a point (crossing or touching).
+pub fn segments_meet(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let d1 = orient(c, d, a);
+    let d2 = orient(c, d, b);
+    let d3 = orient(a, b, c);
+    let d4 = orient(a, b, d);
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return true;
+    }
+    let on = |p: Point, q: Point, r: Point, o: f32| {
+        o == 0.0
+            && r.x >= p.x.min(q.x)
+            && r.x <= p.x.max(q.x)
+            && r.y >= p.y.min(q.y)
+            && r.y <= p.y.max(q.y)
+    };
+    on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
+}
+
+/// Whether the open segments `ab` and `cd` cross properly (each strictly separates the other's
+/// ends).
+pub fn segments_cross(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let d1 = orient(c, d, a);
+    let d2 = orient(c, d, b);
+    let d3 = orient(a, b, c);
+    let d4 = orient(a, b, d);
+    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+}
+
+/// The first pair of non-adjacent edges that meet, if any.
+pub fn self_intersection(pts: &[Point]) -> Option<(usize, usize)> {
+    let n = pts.len();
+    for i in 0..n {
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
+        for j in (i + 1)..n {
+            let adjacent = j == i + 1 || (i == 0 && j == n - 1);
+            let (c, d) = (pts[j], pts[(j + 1) % n]);
+            if adjacent {
+                // Adjacent edges share one vertex; they only intersect if they fold back.
+                let shared = if j == i + 1 { b } else { a };
+                let (o1, o2) = if j == i + 1 { (a, d) } else { (b, c) };
+                if orient(o1, shared, o2) == 0.0 && (o1 - shared).dot(o2 - shared) > 0.0 {
+                    return Some((i, j));
+                }
+                continue;
+            }
+            if segments_meet(a, b, c, d) {
+                return Some((i, j));
+            }
+        }
+    }
+    None
+}
+
+/// The first pair of edges (one of each polygon) that meet, if any.
+pub fn boundaries_meet(p: &[Point], q: &[Point]) -> Option<(usize, usize)> {
+    let (pb, qb) = (bbox(p), bbox(q));
+    if pb.0.x > qb.1.x || qb.0.x > pb.1.x || pb.0.y > qb.1.y || qb.0.y > pb.1.y {
+        return None;
+    }
+    for i in 0..p.len() {
+        let (a, b) = (p[i], p[(i + 1) % p.len()]);
+        for j in 0..q.len() {
+            if segments_meet(a, b, q[j], q[(j + 1) % q.len()]) {
+                return Some((i, j));
+            }
+        }
+    }
+    None
+}
+
+/// Bounding box (min, max).
+pub fn bbox(pts: &[Point]) -> (Point, Point) {
+    let mut lo = Point::new(f32::INFINITY, f32::INFINITY);
+    let mut hi = Point::new(f32::NEG_INFINITY, f32::NEG_INFINITY);
+    for p in pts {
+        lo.x = lo.x.min(p.x);
+        lo.y = lo.y.min(p.y);
+        hi.x = hi.x.max(p.x);
+        hi.y = hi.y.max(p.y);
+    }
+    (lo, hi)
+}
+
+/// Distance from `p` to a box, 0 inside: a lower bound of the distance to what the box holds.
+pub fn bbox_distance(b: (Point, Point), p: Point) -> f32 {
+    let dx = (b.0.x - p.x).max(p.x - b.1.x).max(0.0);
+    let dy = (b.0.y - p.y).max(p.y - b.1.y).max(0.0);
+    libm::sqrtf(dx * dx + dy * dy)
+}

@@ -1,0 +1,123 @@
+//! Open polylines given as point slices.
+
+use super::polygon::segments_cross;
+use super::Point;
+
+/// The closest point of segment `ab` to `p`, and its parameter in [0, 1].
+pub fn closest_on_segment(a: Point, b: Point, p: Point) -> (Point, f32) {
+    let ab = b - a;
+    let l2 = ab.norm2();
+    if l2 <= 0.0 {
+        return (a, 0.0);
+    }
+    let t = ((p - a).dot(ab) / l2).clamp(0.0, 1.0);
+    (a + ab * t, t)
+}
+
+/// Length of an open polyline.
+pub fn length(pts: &[Point]) -> f32 {
+    pts.windows(2).map(|w| w[0].dist(w[1])).sum()
+}
+
+/// The point at arc length `s` (clamped to the ends).
+pub fn point_at(pts: &[Point], s: f32) -> Point {
+    let mut acc = 0.0;
+    for w in pts.windows(2) {
+        let l = w[0].dist(w[1]);
+        if acc + l >= s && l > 0.0 {
+            return w[0].lerp(w[1], ((s - acc) / l).clamp(0.0, 1.0));
+        }
+        acc += l;
+    }
+    *pts.last().unwrap_or(&Point::default())
+}
+
+/// Projection of `p`: (arc length of the closest point, the point, its distance).
+pub fn project(pts: &[Point], p: Point) -> (f32, Point, f32) {
+    let mut best = (0.0, pts[0], f32::INFINITY);
+    let mut acc = 0.0;
+    for w in pts.windows(2) {
+        let (c, t) = closest_on_segment(w[0], w[1], p);
+        let d = c.dist(p);
+        let l = w[0].dist(w[1]);
+        if d < best.2 {
+            best = (acc + t * l, c, d);
+        }
+        acc += l;
+    }
+    if pts.len() == 1 {
+        best.2 = pts[0].dist(p);
+    }
+    best
+}
+
+/// Unit tangent at arc length `s`.
+pub fn tangent_at(pts: &[Point], s: f32) -> Point {
+    let mut acc = 0.0;
+    let n = pts.len();
+    for (i, w) in pts.windows(2).enumerate() {
+        let l = w[0].dist(w[1]);
+        if acc + l >= s || i + 2 == n {
+            return (w[1] - w[0]).normalized();
+        }
+        acc += l;
+    }
+    Point::default()
+}
+
+/// Simplify `pts` into `out` so that no dropped point is farther than `tol` from the kept
+/// chord. The ends are always kept. Returns `Err(())` when `out` fills up.
+pub fn simplify<const N: usize>(
+    pts: &[Point],
+    tol: f32,
+    out: &mut heapless::Vec<Point, N>,
+) -> Result<(), ()> {
+    out.clear();
+    if pts.is_empty() {
+        return Ok(());
+    }
+    out.push(pts[0]).map_err(|_| ())?;
+    let mut anchor = 0;
+    let mut k = 2;
+    while k < pts.len() {
+        let (a, b) = (pts[anchor], pts[k]);
+        let too_far = pts[anchor + 1..k]
+            .iter()
+            .any(|&q| closest_on_segment(a, b, q).0.dist(q) > tol);
+        if too_far {
+            out.push(pts[k - 1]).map_err(|_| ())?;
+            anchor = k - 1;
+        }
+        k += 1;
+    }
+    if pts.len() > 1 {
+        out.push(pts[pts.len() - 1]).map_err(|_| ())?;
+    }
+    Ok(())
+}
+
+/// Whether two polylines cross. Segments that only touch at a shared end point do not count;
+/// proper crossings and one polyline's vertex lying inside the other's segment do.
+pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
+    for a in p.windows(2) {
+        for b in q.windows(2) {
+            if segments_cross(a[0], a[1], b[0], b[1]) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Bounding box of a polyline (min, max).
+pub fn bbox(pts: &[Point]) -> (Point, Point) {
+    super::polygon::bbox(pts)
+}
+
+/// Whether two boxes overlap (with a margin).
+pub fn boxes_overlap(a: (Point, Point), b: (Point, Point), margin: f32) -> bool {
+    a.0.x <= b.1.x + margin
+        && b.0.x <= a.1.x + margin
+        && a.0.y <= b.1.y + margin
+        && b.0.y <= a.1.y + margin
+}

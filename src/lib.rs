@@ -1,0 +1,62 @@
+//! # hollowpath: continuous multi-material toolpaths for scaffolds with hollow features
+//!
+//! This is the `no_std` core that runs on the printer's Cortex-M4F. It implements, and goes
+//! beyond, Ozbolat & Koc, *A continuous multi-material toolpath planning for tissue scaffolds
+//! with hollowed features* (2011). It has no allocator: every buffer is fixed-capacity, sized
+//! in [`config`], and a full buffer is an [`Error::Capacity`] naming the [`Limit`]. Nothing here
+//! reads a clock, a global or a peripheral, and all math goes through `libm`, so the host and
+//! the MCU compute bit-identical plans ([`Plan::digest`]).
+//!
+//! ## The data's journey
+//!
+//! ```text
+//! slice ──► field + cells ──► MCLs: insert ──► match (Algorithm I) ──► relax ──► Plan
+//! ```
+//!
+//! * [`slice`]: the validated [`Slice`] (wall, hollow features, materials, [`Settings`]).
+//!   [`Slice::new`] refuses every invalid slice with an [`Error`] that names the feature and
+//!   the reason; nothing downstream re-checks.
+//! * [`field`]: one grid over the slice. Each node is labelled by the Voronoi cell of the
+//!   hollow feature nearest to it, or as keep-out (within half a road width of a feature or the
+//!   wall, where no road centre may go). In every cell a harmonic field `u` runs from 0 on the
+//!   feature to 1 on the cell boundary.
+//! * [`cells`]: the [`Bisector`](cells::Bisector)s where two cells meet, traced exactly on
+//!   `d_i = d_j` from the grid's seeds, and the branch points where three cells meet or a
+//!   bisector meets the wall.
+//! * [`mcl`]: material changing lines. [`mcl::insert`] traces *halves* along the gradient of
+//!   `u` from each feature to its cell boundary (they cannot cross, and they bend into concave
+//!   pockets). [`mcl::matching`] is Algorithm I: objective (2.1), greedy order, bound `delta`,
+//!   weighted point `p*` (2.3), unmatched halves removed. [`mcl::relax`] spreads the ends that
+//!   crowd near branch points (section 2.2).
+//! * [`verify`]: the properties every plan must have, checked from the slice and the plan
+//!   alone.
+//! * [`plan`]: the [`Planner`] that runs the journey with its working memory inline, and the
+//!   resulting [`Plan`].
+//!
+//! Below them, [`geometry`] holds points, polygons, polylines and the grid; [`error`] the one
+//! error type. Logging goes through the private `fmt` macros: `defmt` with the `defmt` feature,
+//! nothing otherwise.
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(test)]
+extern crate std;
+
+#[macro_use]
+mod fmt;
+
+pub mod cells;
+pub mod config;
+pub mod error;
+pub mod field;
+pub mod geometry;
+pub mod mcl;
+pub mod plan;
+pub mod slice;
+pub mod verify;
+
+pub use error::{Error, FeatureId, Limit, SettingId};
+pub use mcl::{Mcl, Target};
+pub use plan::{Plan, PlanStats, Planner};
+pub use slice::{Feature, Material, Settings, Slice};

@@ -1,0 +1,272 @@
+//! Insertion: trace MCL halves from every hollow feature along the field's gradient to the
+//! boundary of its cell.
+//!
+//! Starts are spaced [`mcl_spacing`](crate::Settings::mcl_spacing) along the feature's
+//! keep-out curve. Where two neighbouring halves end farther apart than twice the road width
+//! (so the roads along them would leave a gap wider than a road), a half is inserted between
+//! them, up to [`MAX_REFINE_DEPTH`] times. Streamlines of the harmonic field do not cross; a
+//! numerical near-miss that still crosses its neighbour is dropped (and counted).
+
+use heapless::Vec;
+
+use crate::cells::{away_from_hole, bisect};
+use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, MAX_VERTICES, TRACE_POINTS};
+use crate::field::Field;
+use crate::geometry::{polygon, polyline, Point};
+use crate::mcl::{Half, HalfEnd};
+use crate::plan::PlanStats;
+use crate::{Error, FeatureId, Limit, Slice};
+
+/// Largest distance between the far ends of neighbouring halves, in road widths.
+const MAX_END_GAP_PER_ROAD: f32 = 1.9;
+
+/// Traces the halves of every hole into `halves` (cleared first).
+pub fn insert(
+    slice: &Slice,
+    field: &Field,
+    halves: &mut Vec<Half, MAX_HALVES>,
+    scratch: &mut Vec<Point, TRACE_POINTS>,
+    stats: &mut PlanStats,
+) -> Result<(), Error> {
+    halves.clear();
+    let settings = slice.settings();
+    let w = settings.road_width;
+    for i in 0..slice.holes().len() {
+        let hole = Hole::new(slice, i);
+        let n0 = libm::ceilf(hole.length / settings.mcl_spacing).max(3.0) as usize;
+        let ds = hole.length / n0 as f32;
+        for k in 0..n0 {
+            trace_half(slice, field, &hole, k as f32 * ds, 0, halves, scratch, stats)?;
+        }
+        for depth in 1..=MAX_REFINE_DEPTH {
+            let order = sorted_halves(halves, i);
+            let mut added = false;
+            for k in 0..order.len() {
+                let (sa, ea) = (halves[order[k] as usize].s, halves[order[k] as usize].end_point());
+                let next = order[(k + 1) % order.len()] as usize;
+                let (sb, eb) = (halves[next].s, halves[next].end_point());
+                let mut gap_s = sb - sa;
+                if gap_s <= 0.0 {
+                    gap_s += hole.length;
+                }
+                if ea.dist(eb) > MAX_END_GAP_PER_ROAD * w && gap_s > 1e-3 {
+                    let s = (sa + 0.5 * gap_s) % hole.length;
+                    added |= trace_half(slice, field, &hole, s, depth as u8, halves, scratch, stats)?;
+                }
+            }
+            if !added {
+                break;
+            }
+        }
+        // Safety net: neighbours must not cross.
+        let order = sorted_halves(halves, i);
+        for k in 0..order.len() {
+            let (ia, ib) = (order[k] as usize, order[(k + 1) % order.len()] as usize);
+            if ia == ib || !halves[ia].alive || !halves[ib].alive {
+                continue;
+            }
+            if polyline::polylines_cross(&halves[ia].points, &halves[ib].points) {
+                let drop = if halves[ia].depth >= halves[ib].depth { ia } else { ib };
+                halves[drop].alive = false;
+                stats.dropped_crossing += 1;
+            }
+        }
+    }
+    halves.retain(|h| h.alive);
+    Ok(())
+}
+
+/// Indices of the halves of hole `i`, sorted by their start parameter.
+pub(crate) fn sorted_halves(halves: &[Half], i: usize) -> Vec<u16, MAX_HALVES> {
+    let mut order: Vec<u16, MAX_HALVES> = Vec::new();
+    for (k, h) in halves.iter().enumerate() {
+        if h.hole as usize == i && h.alive {
+            // At most MAX_HALVES halves exist.
+            let _ = order.push(k as u16);
+        }
+    }
+    order.sort_unstable_by(|&a, &b| {
+        halves[a as usize]
+            .s
+            .total_cmp(&halves[b as usize].s)
+            .then(a.cmp(&b))
+    });
+    order
+}
+
+/// Indices of all halves, sorted by hole and start parameter.
+pub(crate) fn sorted_all(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
+    let mut order: Vec<u16, MAX_HALVES> = (0..halves.len() as u16).collect();
+    order.sort_unstable_by(|&a, &b| {
+        let (x, y) = (&halves[a as usize], &halves[b as usize]);
+        x.hole.cmp(&y.hole).then(x.s.total_cmp(&y.s)).then(a.cmp(&b))
+    });
+    order
+}
+
+/// A hole's boundary with smoothly interpolated outward normals.
+struct Hole<'a> {
+    index: usize,
+    pts: &'a [Point],
+    normals: [Point; MAX_VERTICES],
+    length: f32,
+}
+
+impl<'a> Hole<'a> {
+    fn new(slice: &'a Slice, index: usize) -> Hole<'a> {
+        let pts = slice.holes()[index].points();
+        let n = pts.len();
+        let mut normals = [Point::default(); MAX_VERTICES];
+        // Counter-clockwise: the outward normal of edge a->b is (dy, -dx).
+        let edge_normal = |k: usize| {
+            let d = pts[(k + 1) % n] - pts[k];
+            Point::new(d.y, -d.x).normalized()
+        };
+        for (k, nk) in normals.iter_mut().take(n).enumerate() {
+            *nk = (edge_normal((k + n - 1) % n) + edge_normal(k)).normalized();
+        }
+        Hole {
+            index,
+            pts,
+            normals,
+            length: polygon::perimeter(pts),
+        }
+    }
+
+    /// Point and interpolated outward normal at arc length `s`.
+    fn at(&self, s: f32) -> (Point, Point) {
+        let n = self.pts.len();
+        let mut acc = 0.0;
+        for k in 0..n {
+            let (a, b) = (self.pts[k], self.pts[(k + 1) % n]);
+            let l = a.dist(b);
+            if acc + l > s || k == n - 1 {
+                let t = if l > 0.0 { ((s - acc) / l).clamp(0.0, 1.0) } else { 0.0 };
+                let nrm = self.normals[k].lerp(self.normals[(k + 1) % n], t).normalized();
+                return (a.lerp(b, t), nrm);
+            }
+            acc += l;
+        }
+        (self.pts[0], self.normals[0])
+    }
+}
+
+/// Traces one half from arc length `s` of `hole`; returns whether a half was added.
+#[allow(clippy::too_many_arguments)]
+fn trace_half(
+    slice: &Slice,
+    field: &Field,
+    hole: &Hole<'_>,
+    s: f32,
+    depth: u8,
+    halves: &mut Vec<Half, MAX_HALVES>,
+    scratch: &mut Vec<Point, TRACE_POINTS>,
+    stats: &mut PlanStats,
+) -> Result<bool, Error> {
+    let w = slice.settings().road_width;
+    let half = 0.5 * w;
+    let i = hole.index;
+    let (q, normal) = hole.at(s);
+    let mut start = q + normal * half;
+    // Onto the keep-out curve where the hole is concave.
+    for _ in 0..3 {
+        let (c, d, _) = polygon::closest(hole.pts, start);
+        if d >= half - 1e-5 {
+            break;
+        }
+        start = c + (start - c).normalized() * half;
+    }
+    if !slice.is_printable(start, 1e-4) || slice.nearest_holes(start).0 != i {
+        stats.failed_traces += 1;
+        return Ok(false);
+    }
+    let Some(end) = trace(slice, field, i, start, scratch) else {
+        if scratch.len() >= TRACE_POINTS - 1 {
+            return Err(Error::Capacity {
+                limit: Limit::TracePoints,
+                feature: Some(FeatureId::Hole(i as u8)),
+            });
+        }
+        stats.failed_traces += 1;
+        return Ok(false);
+    };
+    let mut points: Vec<Point, HALF_POINTS> = Vec::new();
+    let mut tol = 0.005;
+    while polyline::simplify(scratch, tol, &mut points).is_err() {
+        tol *= 2.0;
+    }
+    let new = Half {
+        hole: i as u8,
+        s,
+        start_normal: normal,
+        end,
+        points,
+        partner: None,
+        on_bisector: None,
+        depth,
+        alive: true,
+    };
+    halves.push(new).map_err(|_| Error::Capacity {
+        limit: Limit::Halves,
+        feature: Some(FeatureId::Hole(i as u8)),
+    })?;
+    stats.traced += 1;
+    Ok(true)
+}
+
+/// Follows the field from `start` in the cell of hole `i` until the cell boundary, into
+/// `out`. `None` if the line does not reach the boundary.
+fn trace(
+    slice: &Slice,
+    field: &Field,
+    i: usize,
+    start: Point,
+    out: &mut Vec<Point, TRACE_POINTS>,
+) -> Option<HalfEnd> {
+    let w = slice.settings().road_width;
+    let half = 0.5 * w;
+    let h = field.grid().h;
+    let step = 0.5 * h.min(w);
+    let direction = |x: Point| {
+        let (n, d) = away_from_hole(slice, i, x);
+        let weight = ((d - half) / h).clamp(0.0, 1.0);
+        match field.gradient(x, i) {
+            Some(g) if g.norm2() > 1e-12 => (n * (1.0 - weight) + g.normalized() * weight).normalized(),
+            _ => n,
+        }
+    };
+    let own = |x: Point| slice.holes()[i].signed_distance(x);
+    let others = |x: Point| {
+        (0..slice.holes().len())
+            .filter(|&c| c != i)
+            .map(|c| (c, slice.holes()[c].signed_distance(x)))
+            .fold((i, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+    };
+    out.clear();
+    out.push(start).ok()?;
+    let mut p = start;
+    while out.len() < TRACE_POINTS - 1 {
+        let d1 = direction(p);
+        let d2 = direction(p + d1 * (0.5 * step));
+        let q = p + d2 * step;
+        if slice.wall_clearance(q) < half {
+            let e = bisect(p, q, |x| slice.wall_clearance(x) - half);
+            out.push(e).ok()?;
+            return Some(HalfEnd::Wall);
+        }
+        let dq = own(q);
+        let (_, dother) = others(q);
+        if dother <= dq {
+            let e = bisect(p, q, |x| others(x).1 - own(x));
+            let (j, _) = others(e);
+            out.push(e).ok()?;
+            return Some(HalfEnd::Bisector(j as u8));
+        }
+        if dq < half - 1e-3 {
+            return None;
+        }
+        out.push(q).ok()?;
+        p = q;
+    }
+    None
+}

@@ -1,0 +1,232 @@
+//! Matching MCLs across the bisectors: the paper's Algorithm I (section 2.1).
+//!
+//! For every bisector piece `B_k` between the cells of holes `a` and `b`, the halves of both
+//! cells that end on it are candidates. Each has the objective (2.1)
+//!
+//! `f(p, q) = <N(p), N(q)>^w_n / |p - q|^w_d`
+//!
+//! with `p` its end on the bisector, `N(p)` the bisector's normal there (pointing away from its
+//! own hole), `q` its start on the hole and `N(q)` the hole's outward normal. Greedily, the
+//! unmatched half with the largest `f` takes the nearest unmatched half of the other cell along
+//! the bisector, if that lies within `delta`; both are rebuilt to meet at the weighted point
+//! `p* = B_k(u*)`, `u* = (u_i f_i + u_j f_j) / (f_i + f_j)` of (2.3). With no feasible
+//! candidate the half is deleted, and halves left unmatched are removed: no MCL ends dangling
+//! on a bisector.
+//!
+//! Beyond the paper, a candidate is feasible only if the match keeps the order of the matches
+//! already made along the bisector (on both sides and at `p*`) and crosses no finished MCL, so
+//! the rebuilt MCLs cannot cross each other.
+
+use heapless::Vec;
+
+use crate::cells::{away_from_hole, Cells};
+use crate::config::{MAX_HALVES, MCL_POINTS};
+use crate::geometry::{polyline, Point};
+use crate::mcl::{Half, HalfEnd};
+use crate::plan::PlanStats;
+use crate::Slice;
+
+/// How far (mm) a half's end may lie from the traced bisector and still count as on it.
+const ON_BISECTOR_TOL: f32 = 0.02;
+
+/// The matching objective (2.1) of a half whose end lies on a bisector with normal
+/// `bisector_normal` (pointing away from the half's hole).
+///
+/// ```
+/// use hollowpath::geometry::Point;
+/// use hollowpath::mcl::matching::objective;
+/// // Perfectly aligned normals, 2 mm apart, w_n = w_d = 1.
+/// let f = objective(Point::new(1.0, 0.0), Point::new(1.0, 0.0), 2.0, 1.0, 1.0);
+/// assert_eq!(f, 0.5);
+/// ```
+pub fn objective(bisector_normal: Point, hole_normal: Point, dist: f32, w_n: f32, w_d: f32) -> f32 {
+    let dot = bisector_normal.dot(hole_normal).max(0.0);
+    libm::powf(dot, w_n) / libm::powf(dist.max(1e-3), w_d)
+}
+
+#[derive(Clone, Copy)]
+struct Candidate {
+    half: u16,
+    side_a: bool,
+    u: f32,
+    f: f32,
+    done: bool,
+}
+
+#[derive(Clone, Copy)]
+struct Match {
+    ua: f32,
+    ub: f32,
+    ustar: f32,
+}
+
+/// Matches across every bisector of `cells`; removes the unmatched bisector halves.
+pub fn match_all(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, stats: &mut PlanStats) {
+    let settings = *slice.settings();
+    // Put every bisector end on its bisector piece.
+    for h in halves.iter_mut() {
+        h.partner = None;
+        h.on_bisector = None;
+        if let HalfEnd::Bisector(j) = h.end {
+            let e = h.end_point();
+            let best = cells
+                .between(h.hole as usize, j as usize)
+                .map(|(k, b)| {
+                    let (u, _, d) = polyline::project(&b.points, e);
+                    (k, u, d)
+                })
+                .fold(None, |acc: Option<(usize, f32, f32)>, x| match acc {
+                    Some(a) if a.2 <= x.2 => Some(a),
+                    _ => Some(x),
+                });
+            match best {
+                Some((k, u, d)) if d < ON_BISECTOR_TOL => h.on_bisector = Some((k as u8, u)),
+                _ => {
+                    h.alive = false;
+                    stats.off_bisector += 1;
+                }
+            }
+        }
+    }
+    for (k, bis) in cells.bisectors.iter().enumerate() {
+        let mut cands: Vec<Candidate, MAX_HALVES> = Vec::new();
+        for (idx, h) in halves.iter().enumerate() {
+            let Some((bk, u)) = h.on_bisector else { continue };
+            if bk as usize != k || !h.alive {
+                continue;
+            }
+            let p = h.end_point();
+            let (na, _) = away_from_hole(slice, bis.a as usize, p);
+            let (nb, _) = away_from_hole(slice, bis.b as usize, p);
+            let side_a = h.hole == bis.a;
+            let normal = if side_a { na - nb } else { nb - na }.normalized();
+            let f = objective(normal, h.start_normal, p.dist(h.start()), settings.w_n, settings.w_d);
+            // At most MAX_HALVES candidates exist.
+            let _ = cands.push(Candidate {
+                half: idx as u16,
+                side_a,
+                u,
+                f,
+                done: false,
+            });
+        }
+        let mut matches: Vec<Match, MAX_HALVES> = Vec::new();
+        loop {
+            // The unmatched half with the largest objective (first on ties).
+            let mut best: Option<usize> = None;
+            for (c, cand) in cands.iter().enumerate() {
+                if !cand.done && best.is_none_or(|b| cand.f > cands[b].f) {
+                    best = Some(c);
+                }
+            }
+            let Some(bi) = best else { break };
+            cands[bi].done = true;
+            let me = cands[bi];
+            // Candidates of the other cell, nearest first along the bisector.
+            let mut chosen = None;
+            let mut tried: Vec<bool, MAX_HALVES> = Vec::new();
+            let _ = tried.resize(cands.len(), false);
+            loop {
+                let mut near: Option<usize> = None;
+                for (c, o) in cands.iter().enumerate() {
+                    if o.done || tried[c] || o.side_a == me.side_a {
+                        continue;
+                    }
+                    let d = libm::fabsf(o.u - me.u);
+                    if d < settings.delta && near.is_none_or(|n| d < libm::fabsf(cands[n].u - me.u)) {
+                        near = Some(c);
+                    }
+                }
+                let Some(c) = near else { break };
+                tried[c] = true;
+                let other = cands[c];
+                let (ua, ub, fa, fb) = if me.side_a {
+                    (me.u, other.u, me.f, other.f)
+                } else {
+                    (other.u, me.u, other.f, me.f)
+                };
+                let ustar = if fa + fb > 0.0 {
+                    (ua * fa + ub * fb) / (fa + fb)
+                } else {
+                    0.5 * (ua + ub)
+                };
+                let keeps_order = matches.iter().all(|m| {
+                    let s = (ua - m.ua).signum();
+                    s != 0.0 && (ub - m.ub).signum() == s && (ustar - m.ustar).signum() == s
+                });
+                if !keeps_order {
+                    continue;
+                }
+                let pstar = polyline::point_at(&bis.points, ustar);
+                if try_join(halves, me.half as usize, other.half as usize, pstar) {
+                    chosen = Some(c);
+                    let _ = matches.push(Match { ua, ub, ustar });
+                    let (x, y) = (me.half as usize, other.half as usize);
+                    halves[x].on_bisector = Some((k as u8, ustar));
+                    halves[y].on_bisector = Some((k as u8, ustar));
+                    break;
+                }
+            }
+            match chosen {
+                Some(c) => {
+                    cands[c].done = true;
+                    stats.matched_pairs += 1;
+                }
+                None => {
+                    halves[me.half as usize].alive = false;
+                    stats.removed_unmatched += 1;
+                }
+            }
+        }
+    }
+    // Halves ending on a bisector without a partner are removed.
+    for h in halves.iter_mut() {
+        if h.alive && h.end != HalfEnd::Wall && h.partner.is_none() {
+            h.alive = false;
+            stats.removed_unmatched += 1;
+        }
+    }
+}
+
+/// Rebuilds halves `x` and `y` to meet at `pstar`, unless that makes them cross a finished
+/// MCL (a wall half or a matched half); on success they become partners.
+fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point) -> bool {
+    let mut hx = halves[x].clone();
+    let mut hy = halves[y].clone();
+    hx.reshape_end(pstar);
+    hy.reshape_end(pstar);
+    if crosses_finished(halves, &hx.points, &[x, y]) || crosses_finished(halves, &hy.points, &[x, y]) {
+        return false;
+    }
+    hx.partner = Some(y as u16);
+    hy.partner = Some(x as u16);
+    halves[x] = hx;
+    halves[y] = hy;
+    true
+}
+
+/// Whether `pts` crosses any finished, alive half other than those in `skip`.
+pub(crate) fn crosses_finished(halves: &[Half], pts: &[Point], skip: &[usize]) -> bool {
+    let bb = polyline::bbox(pts);
+    halves.iter().enumerate().any(|(k, h)| {
+        h.alive
+            && !skip.contains(&k)
+            && (h.end == HalfEnd::Wall || h.partner.is_some())
+            && polyline::boxes_overlap(bb, polyline::bbox(&h.points), 1e-4)
+            && polyline::polylines_cross(pts, &h.points)
+    })
+}
+
+/// Points of a finished MCL made of halves `first` and (optionally) `second`.
+pub(crate) fn joined_points(halves: &[Half], first: usize, second: Option<usize>) -> Vec<Point, MCL_POINTS> {
+    let mut out: Vec<Point, MCL_POINTS> = Vec::new();
+    for &p in halves[first].points.iter() {
+        let _ = out.push(p);
+    }
+    if let Some(s) = second {
+        for &p in halves[s].points.iter().rev().skip(1) {
+            let _ = out.push(p);
+        }
+    }
+    out
+}

@@ -1,0 +1,182 @@
+//! Relaxation of the MCLs crowding near branch points (section 2.2).
+//!
+//! Near a branch point the ends of MCLs from several cells (on the wall, on two or three
+//! bisectors) converge. Every *end* (a wall end, or the joint `p*` of a matched pair) closer
+//! than [`relax_spacing`](crate::Settings::relax_spacing) to another end is pushed away from
+//! it along its own curve (the wall's keep-out curve, or the bisector, where the partner moves
+//! with it), as the paper disperses the crowded lines through the extra space of their
+//! neighbours. A move that would cross another MCL or leave the cell is not made. This runs
+//! [`relax_iterations`](crate::Settings::relax_iterations) sweeps; ends still crowding after
+//! that are thinned (the most crowded first), so the spacing holds whatever the iteration count.
+
+use heapless::Vec;
+
+use crate::cells::Cells;
+use crate::config::MAX_HALVES;
+use crate::geometry::{polygon, polyline, Point};
+use crate::mcl::insert::sorted_halves;
+use crate::mcl::matching::crosses_finished;
+use crate::mcl::{Half, HalfEnd};
+use crate::plan::PlanStats;
+use crate::Slice;
+
+/// One end: the half that carries it (the lower index of a pair).
+fn ends(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
+    let mut out: Vec<u16, MAX_HALVES> = Vec::new();
+    for (k, h) in halves.iter().enumerate() {
+        let carrier = match h.partner {
+            Some(p) => (p as usize) > k,
+            None => h.end == HalfEnd::Wall,
+        };
+        if h.alive && carrier {
+            let _ = out.push(k as u16);
+        }
+    }
+    out
+}
+
+/// For every half, the halves before and after it around its hole (by start parameter).
+fn ring_neighbours(halves: &[Half], holes: usize) -> Vec<(u16, u16), MAX_HALVES> {
+    let mut out: Vec<(u16, u16), MAX_HALVES> = Vec::new();
+    let _ = out.resize(halves.len(), (0, 0));
+    for i in 0..holes {
+        let order = sorted_halves(halves, i);
+        let n = order.len();
+        for k in 0..n {
+            out[order[k] as usize] = (order[(k + n - 1) % n], order[(k + 1) % n]);
+        }
+    }
+    out
+}
+
+/// Relaxes and thins the ends of `halves`.
+pub fn relax(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, stats: &mut PlanStats) {
+    let settings = *slice.settings();
+    let spacing = settings.relax_spacing;
+    let ring = ring_neighbours(halves, slice.holes().len());
+    for _ in 0..settings.relax_iterations {
+        let list = ends(halves);
+        let mut moved = false;
+        for &e in list.iter() {
+            let e = e as usize;
+            let here = halves[e].end_point();
+            // Smoothing: towards the middle of the neighbours around the hole(s) it joins.
+            let mut pull = Point::default();
+            for k in [Some(e), halves[e].partner.map(|p| p as usize)].into_iter().flatten() {
+                let (prev, next) = ring[k];
+                let (prev, next) = (halves[prev as usize].end_point(), halves[next as usize].end_point());
+                pull = pull + ((prev - here) + (next - here)) * 0.25;
+            }
+            // Repulsion: away from every end nearer than the spacing.
+            let mut push = Point::default();
+            for &o in list.iter() {
+                let o = o as usize;
+                if o == e {
+                    continue;
+                }
+                let d = here.dist(halves[o].end_point());
+                if d < spacing {
+                    let away = if d > 1e-6 {
+                        (here - halves[o].end_point()) * (1.0 / d)
+                    } else {
+                        // Coincident ends: push along the order of their starts.
+                        Point::new(if e < o { -1.0 } else { 1.0 }, 0.0)
+                    };
+                    push = push + away * (0.5 * (spacing - d));
+                }
+            }
+            let mut step = pull + push;
+            let len = step.norm();
+            if len < 1e-4 * spacing {
+                continue;
+            }
+            if len > 0.5 * spacing {
+                step = step * (0.5 * spacing / len);
+            }
+            if try_move(slice, cells, halves, e, step) {
+                stats.relax_moves += 1;
+                moved = true;
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    // Thinning: remove the most crowded end until no two ends are closer than the spacing.
+    loop {
+        let list = ends(halves);
+        let mut worst: Option<(usize, usize)> = None;
+        for &e in list.iter() {
+            let here = halves[e as usize].end_point();
+            let crowd = list
+                .iter()
+                .filter(|&&o| o != e && halves[o as usize].end_point().dist(here) < spacing - 1e-4)
+                .count();
+            if crowd > 0 && worst.is_none_or(|w| crowd > w.1) {
+                worst = Some((e as usize, crowd));
+            }
+        }
+        let Some((e, _)) = worst else { break };
+        halves[e].alive = false;
+        if let Some(p) = halves[e].partner {
+            halves[p as usize].alive = false;
+        }
+        stats.thinned += 1;
+    }
+}
+
+/// Moves end `e` by (the projection onto its curve of) `push`; false if the move is refused.
+fn try_move(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, e: usize, push: Point) -> bool {
+    let half = 0.5 * slice.settings().road_width;
+    let here = halves[e].end_point();
+    let hole = halves[e].hole as usize;
+    let (target, new_u) = match (halves[e].partner, halves[e].on_bisector) {
+        (Some(_), Some((k, u))) => {
+            let bis = &cells.bisectors[k as usize].points;
+            let t = polyline::tangent_at(bis, u);
+            let len = polyline::length(bis);
+            let nu = (u + push.dot(t)).clamp(0.0, len);
+            (polyline::point_at(bis, nu), Some((k, nu)))
+        }
+        _ => {
+            let wall = slice.wall().points();
+            let (_, _, edge) = polygon::closest(wall, here);
+            let t = (wall[(edge + 1) % wall.len()] - wall[edge]).normalized();
+            let moved = here + t * push.dot(t);
+            let (c, _, _) = polygon::closest(wall, moved);
+            let inward = if polygon::contains(wall, moved) { moved - c } else { c - moved };
+            let inward = if inward.norm2() > 1e-12 { inward.normalized() } else { (here - c).normalized() };
+            (c + inward * half, None)
+        }
+    };
+    let partner = halves[e].partner.map(|p| p as usize);
+    // A wall end must stay in its own cell; a joint stays on its bisector by construction.
+    let leaves_cell = partner.is_none() && slice.nearest_holes(target).0 != hole;
+    if target.dist(here) < 1e-5 || !slice.is_printable(target, 1e-3) || leaves_cell {
+        return false;
+    }
+    let mut a = halves[e].clone();
+    a.reshape_end(target);
+    let mut b = partner.map(|p| {
+        let mut b = halves[p].clone();
+        b.reshape_end(target);
+        b
+    });
+    let skip = [e, partner.unwrap_or(e)];
+    if crosses_finished(halves, &a.points, &skip)
+        || b.as_ref().is_some_and(|b| crosses_finished(halves, &b.points, &skip))
+    {
+        return false;
+    }
+    if let Some(nu) = new_u {
+        a.on_bisector = Some(nu);
+        if let Some(b) = b.as_mut() {
+            b.on_bisector = Some(nu);
+        }
+    }
+    halves[e] = a;
+    if let (Some(p), Some(b)) = (partner, b) {
+        halves[p] = b;
+    }
+    true
+}

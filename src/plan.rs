@@ -1,0 +1,241 @@
+//! The planner: from a validated slice to matched, relaxed MCLs.
+
+use heapless::Vec;
+
+use crate::cells::{Bisector, Cells};
+use crate::config::{MAX_HALVES, MAX_MCLS, MCL_POINTS, TRACE_POINTS};
+use crate::field::Field;
+use crate::geometry::Point;
+use crate::mcl::matching::joined_points;
+use crate::mcl::{insert, matching, relax, Half, HalfEnd, Mcl, Target};
+use crate::{Error, Limit, Slice};
+
+/// Counters of one planning run, for the curious and for tests.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PlanStats {
+    /// Grid nodes of the field.
+    pub grid_nodes: u32,
+    /// Grid spacing, mm.
+    pub grid_h: f32,
+    /// Sweeps of the field solve.
+    pub sweeps: u32,
+    /// Largest change in the last sweep.
+    pub residual: f32,
+    /// Halves traced.
+    pub traced: u32,
+    /// Starts that gave no half (not printable, or the line did not reach the boundary).
+    pub failed_traces: u32,
+    /// Halves dropped because they crossed a neighbour.
+    pub dropped_crossing: u32,
+    /// Bisector halves whose end lay on no traced bisector piece (removed).
+    pub off_bisector: u32,
+    /// Matched pairs.
+    pub matched_pairs: u32,
+    /// Halves removed for want of a match.
+    pub removed_unmatched: u32,
+    /// Relaxation moves made.
+    pub relax_moves: u32,
+    /// Ends removed because they still crowded after relaxation.
+    pub thinned: u32,
+}
+
+/// A finished plan: the MCLs, the bisectors and the branch points.
+#[derive(Clone, Debug, Default)]
+pub struct Plan {
+    /// The halves the MCLs are made of (see [`Mcl::first`], [`Mcl::second`]).
+    pub halves: Vec<Half, MAX_HALVES>,
+    /// The MCLs, ordered by hole and position along it.
+    pub mcls: Vec<Mcl, MAX_MCLS>,
+    /// The cells' bisectors and branch points.
+    pub cells: Cells,
+    /// Counters of the run.
+    pub stats: PlanStats,
+}
+
+impl Plan {
+    /// The polyline of an MCL, from its `from` hole to the wall or through `p*` to its `to`
+    /// hole.
+    pub fn points(&self, mcl: &Mcl) -> Vec<Point, MCL_POINTS> {
+        joined_points(&self.halves, mcl.first as usize, mcl.second.map(|s| s as usize))
+    }
+
+    /// The bisector pieces.
+    pub fn bisectors(&self) -> &[Bisector] {
+        &self.cells.bisectors
+    }
+
+    /// A 64-bit FNV-1a digest of every MCL (ends, points as IEEE bits), bisector and branch
+    /// point: equal digests mean bit-identical plans.
+    pub fn digest(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |x: u32| {
+            for b in x.to_le_bytes() {
+                h ^= b as u64;
+                h = h.wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        for m in self.mcls.iter() {
+            eat(m.from as u32);
+            eat(match m.to {
+                Target::Wall => u32::MAX,
+                Target::Hole(j) => j as u32,
+            });
+            for p in self.points(m).iter() {
+                eat(p.x.to_bits());
+                eat(p.y.to_bits());
+            }
+        }
+        for b in self.cells.bisectors.iter() {
+            for p in b.points.iter() {
+                eat(p.x.to_bits());
+                eat(p.y.to_bits());
+            }
+        }
+        for p in self.cells.branch_points.iter() {
+            eat(p.x.to_bits());
+            eat(p.y.to_bits());
+        }
+        h
+    }
+}
+
+/// The planner with all its working memory, inline: about 200 KiB, meant for a `static` on the
+/// MCU (or a `Box` on the host).
+///
+/// ```
+/// # use hollowpath::{Feature, FeatureId, Planner, Settings, Slice, geometry::Point};
+/// # let circle = |cx: f32, r: f32, n: usize| -> Vec<Point> {
+/// #     (0..n).map(|k| {
+/// #         let a = k as f32 / n as f32 * std::f32::consts::TAU;
+/// #         Point::new(cx + r * a.cos(), r * a.sin())
+/// #     }).collect()
+/// # };
+/// let wall = Feature::new(FeatureId::Wall, &circle(0.0, 8.0, 64), [1.0, 0.0, 0.0, 0.0]).unwrap();
+/// let hole = Feature::new(FeatureId::Hole(0), &circle(0.0, 4.0, 48), [0.0, 1.0, 0.0, 0.0]).unwrap();
+/// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
+/// let mut planner = Box::new(Planner::new());
+/// let plan = planner.plan(&slice).unwrap();
+/// assert!(plan.mcls.len() > 50);
+/// ```
+pub struct Planner {
+    field: Field,
+    scratch: Vec<Point, TRACE_POINTS>,
+    plan: Plan,
+}
+
+impl Default for Planner {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Planner {
+    /// A planner with empty buffers.
+    pub const fn new() -> Planner {
+        Planner {
+            field: Field::new(),
+            scratch: Vec::new(),
+            plan: Plan {
+                halves: Vec::new(),
+                mcls: Vec::new(),
+                cells: Cells::new(),
+                stats: PlanStats {
+                    grid_nodes: 0,
+                    grid_h: 0.0,
+                    sweeps: 0,
+                    residual: 0.0,
+                    traced: 0,
+                    failed_traces: 0,
+                    dropped_crossing: 0,
+                    off_bisector: 0,
+                    matched_pairs: 0,
+                    removed_unmatched: 0,
+                    relax_moves: 0,
+                    thinned: 0,
+                },
+            },
+        }
+    }
+
+    /// The plan of the last successful run (empty after a failed one).
+    pub fn last_plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The field of the last run (labels and harmonic values).
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+
+    /// Plans the MCLs of `slice`: cells, insertion, matching, relaxation. On error the previous
+    /// plan is gone and no partial plan is returned.
+    pub fn plan(&mut self, slice: &Slice) -> Result<&Plan, Error> {
+        let result = self.run(slice);
+        if result.is_err() {
+            self.plan.halves.clear();
+            self.plan.mcls.clear();
+            self.plan.cells.bisectors.clear();
+            self.plan.cells.branch_points.clear();
+        }
+        result.map(|()| &self.plan)
+    }
+
+    fn run(&mut self, slice: &Slice) -> Result<(), Error> {
+        let plan = &mut self.plan;
+        plan.stats = PlanStats::default();
+        plan.mcls.clear();
+        self.field.label_nodes(slice)?;
+        plan.cells.build(slice, &self.field, &mut self.scratch)?;
+        self.field.solve();
+        let (sweeps, residual) = self.field.convergence();
+        plan.stats.grid_nodes = self.field.grid().len() as u32;
+        plan.stats.grid_h = self.field.grid().h;
+        plan.stats.sweeps = sweeps;
+        plan.stats.residual = residual;
+        debug!("field: {} sweeps, residual {}", sweeps, residual);
+        insert::insert(slice, &self.field, &mut plan.halves, &mut self.scratch, &mut plan.stats)?;
+        matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
+        relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
+        // Compact the halves (remapping partners), then list the MCLs.
+        let mut remap: Vec<u16, MAX_HALVES> = Vec::new();
+        let mut next = 0u16;
+        for h in plan.halves.iter() {
+            let _ = remap.push(next);
+            if h.alive {
+                next += 1;
+            }
+        }
+        plan.halves.retain(|h| h.alive);
+        for h in plan.halves.iter_mut() {
+            h.partner = h.partner.map(|p| remap[p as usize]);
+        }
+        let order = insert::sorted_all(&plan.halves);
+        for &k in order.iter() {
+            let h = &plan.halves[k as usize];
+            let mcl = match (h.end, h.partner) {
+                (HalfEnd::Wall, _) => Mcl {
+                    from: h.hole,
+                    to: Target::Wall,
+                    first: k,
+                    second: None,
+                    joint: h.end_point(),
+                },
+                (HalfEnd::Bisector(j), Some(p)) if h.hole < j => Mcl {
+                    from: h.hole,
+                    to: Target::Hole(j),
+                    first: k,
+                    second: Some(p),
+                    joint: h.end_point(),
+                },
+                _ => continue,
+            };
+            plan.mcls.push(mcl).map_err(|_| Error::Capacity {
+                limit: Limit::Mcls,
+                feature: None,
+            })?;
+        }
+        debug!("mcls: {}", plan.mcls.len());
+        Ok(())
+    }
+}

@@ -1,0 +1,378 @@
+//! The validated slice: the wall, the hollow features, their materials and the settings.
+//!
+//! A [`Slice`] can only be built through [`Slice::new`], which refuses every invalid input with
+//! an [`Error`] naming the feature and the reason, so everything downstream may assume a valid
+//! slice: simple polygons, counter-clockwise, holes strictly inside the wall and disjoint.
+
+use heapless::Vec;
+
+use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES};
+use crate::geometry::{polygon, Point};
+use crate::{Error, FeatureId, Limit, SettingId};
+
+/// A composition: one fraction per material channel, summing to 1.
+pub type Material = [f32; CHANNELS];
+
+/// One polygon of a slice with its material: the wall or a hollow feature.
+///
+/// ```
+/// use hollowpath::{Feature, FeatureId, geometry::Point};
+/// let tri = [Point::new(0.0, 0.0), Point::new(0.0, 1.0), Point::new(1.0, 0.0)];
+/// let f = Feature::new(FeatureId::Hole(0), &tri, [0.0, 1.0, 0.0, 0.0]).unwrap();
+/// // Stored counter-clockwise whatever the input orientation.
+/// assert!(hollowpath::geometry::polygon::double_area(f.points()) > 0.0);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Feature {
+    id: FeatureId,
+    points: Vec<Point, MAX_VERTICES>,
+    material: Material,
+    bbox: (Point, Point),
+}
+
+impl Feature {
+    /// Checks one polygon on its own (finite, in range, at least 3 distinct points, some area,
+    /// no self-intersection, material fractions) and stores it counter-clockwise. Repeated
+    /// consecutive points and a repeated closing point are dropped.
+    pub fn new(id: FeatureId, points: &[Point], material: Material) -> Result<Feature, Error> {
+        let mut pts: Vec<Point, MAX_VERTICES> = Vec::new();
+        for (k, &p) in points.iter().enumerate() {
+            let vertex = k.min(u16::MAX as usize) as u16;
+            if !p.is_finite() {
+                return Err(Error::NonFinite { feature: id, vertex });
+            }
+            if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
+                return Err(Error::OutOfRange { feature: id, vertex });
+            }
+            if pts.last() == Some(&p) {
+                continue;
+            }
+            pts.push(p).map_err(|_| Error::Capacity {
+                limit: Limit::Vertices,
+                feature: Some(id),
+            })?;
+        }
+        while pts.len() > 1 && pts.first() == pts.last() {
+            pts.pop();
+        }
+        let distinct = pts
+            .iter()
+            .enumerate()
+            .filter(|(k, p)| !pts[..*k].contains(p))
+            .count();
+        if distinct < 3 {
+            return Err(Error::TooFewPoints {
+                feature: id,
+                distinct: distinct as u16,
+            });
+        }
+        let area = polygon::double_area(&pts) * 0.5;
+        if !(libm::fabsf(area) > 1e-6) {
+            return Err(Error::ZeroArea { feature: id });
+        }
+        if let Some((a, b)) = polygon::self_intersection(&pts) {
+            return Err(Error::SelfIntersection {
+                feature: id,
+                edge_a: a as u16,
+                edge_b: b as u16,
+            });
+        }
+        if area < 0.0 {
+            pts.reverse();
+        }
+        check_material(id, &material)?;
+        let bbox = polygon::bbox(&pts);
+        Ok(Feature {
+            id,
+            points: pts,
+            material,
+            bbox,
+        })
+    }
+
+    /// Which feature this is.
+    pub fn id(&self) -> FeatureId {
+        self.id
+    }
+    /// The vertices, counter-clockwise, the closing edge implied.
+    pub fn points(&self) -> &[Point] {
+        &self.points
+    }
+    /// The material deposited at this feature.
+    pub fn material(&self) -> Material {
+        self.material
+    }
+    /// Bounding box (min, max).
+    pub fn bbox(&self) -> (Point, Point) {
+        self.bbox
+    }
+    /// Distance from `p` to the boundary, negative inside the polygon.
+    pub fn signed_distance(&self, p: Point) -> f32 {
+        let d = polygon::closest(&self.points, p).1;
+        if polygon::bbox_distance(self.bbox, p) == 0.0 && polygon::contains(&self.points, p) {
+            -d
+        } else {
+            d
+        }
+    }
+}
+
+fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
+    for (c, &x) in m.iter().enumerate() {
+        if !(x >= 0.0) || !x.is_finite() {
+            return Err(Error::MaterialNegative {
+                feature,
+                channel: c as u8,
+            });
+        }
+    }
+    let sum: f32 = m.iter().sum();
+    if libm::fabsf(sum - 1.0) > 1e-3 {
+        return Err(Error::MaterialSum { feature, sum });
+    }
+    Ok(())
+}
+
+/// The planner's knobs. Every field has a documented default ([`Settings::default`]); a slice
+/// file may set any of them by its key.
+///
+/// ```
+/// let s = hollowpath::Settings::for_road_width(0.5);
+/// assert_eq!(s.road_width, 0.5);
+/// assert_eq!(s.delta, 1.0); // 2 road widths
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Settings {
+    /// `road_width`: deposited road width, mm (default 0.4).
+    pub road_width: f32,
+    /// `layer_height`: layer height, mm (default 0.3).
+    pub layer_height: f32,
+    /// `w_n`: weight of the normal term of the matching objective (2.1) (default 1).
+    pub w_n: f32,
+    /// `w_d`: weight of the distance term of the matching objective (2.1) (default 1).
+    pub w_d: f32,
+    /// `delta`: proximity bound of Algorithm I along the bisector, mm (default 2 road widths).
+    pub delta: f32,
+    /// `mcl_spacing`: spacing of MCLs along a feature, mm (default 1 road width); denser where
+    /// they diverge, so that neighbouring roads leave no gap wider than a road.
+    pub mcl_spacing: f32,
+    /// `relax_iterations`: relaxation sweeps near branch points (default 8); 0 skips the
+    /// smoothing, the final spacing guarantee still holds.
+    pub relax_iterations: u8,
+    /// `relax_spacing`: the least distance between MCL ends on the cell boundary after
+    /// relaxation, mm (default 1 road width).
+    pub relax_spacing: f32,
+}
+
+impl Settings {
+    /// The defaults for a given road width (spacing-like settings scale with it).
+    pub fn for_road_width(road_width: f32) -> Settings {
+        Settings {
+            road_width,
+            layer_height: defaults::LAYER_HEIGHT,
+            w_n: defaults::W_N,
+            w_d: defaults::W_D,
+            delta: defaults::DELTA_PER_ROAD * road_width,
+            mcl_spacing: defaults::MCL_SPACING_PER_ROAD * road_width,
+            relax_iterations: defaults::RELAX_ITERATIONS,
+            relax_spacing: road_width,
+        }
+    }
+
+    fn validate(&self) -> Result<(), Error> {
+        let checks = [
+            (
+                SettingId::RoadWidth,
+                self.road_width,
+                self.road_width > 0.0 && self.road_width <= config::MAX_ROAD_WIDTH_MM,
+            ),
+            (
+                SettingId::LayerHeight,
+                self.layer_height,
+                self.layer_height > 0.0 && self.layer_height <= config::MAX_ROAD_WIDTH_MM,
+            ),
+            (SettingId::WeightNormal, self.w_n, self.w_n >= 0.0 && self.w_n <= 16.0),
+            (SettingId::WeightDistance, self.w_d, self.w_d >= 0.0 && self.w_d <= 16.0),
+            (
+                SettingId::Delta,
+                self.delta,
+                self.delta > 0.0 && self.delta.is_finite(),
+            ),
+            (
+                SettingId::MclSpacing,
+                self.mcl_spacing,
+                self.mcl_spacing >= 0.25 * self.road_width && self.mcl_spacing <= 4.0 * self.road_width,
+            ),
+            (
+                SettingId::RelaxSpacing,
+                self.relax_spacing,
+                self.relax_spacing > 0.0 && self.relax_spacing <= 4.0 * self.road_width,
+            ),
+        ];
+        for (setting, value, ok) in checks {
+            // `ok` is false for NaN as every comparison is.
+            if !ok {
+                return Err(Error::InvalidSetting { setting, value });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings::for_road_width(defaults::ROAD_WIDTH)
+    }
+}
+
+/// A validated slice.
+///
+/// ```
+/// use hollowpath::{Feature, FeatureId, Settings, Slice, geometry::Point};
+/// let circle = |cx: f32, r: f32, n: usize| -> Vec<Point> {
+///     (0..n).map(|k| {
+///         let a = k as f32 / n as f32 * std::f32::consts::TAU;
+///         Point::new(cx + r * a.cos(), r * a.sin())
+///     }).collect()
+/// };
+/// let wall = Feature::new(FeatureId::Wall, &circle(0.0, 10.0, 64), [1.0, 0.0, 0.0, 0.0]).unwrap();
+/// let hole = Feature::new(FeatureId::Hole(0), &circle(0.0, 3.0, 32), [0.0, 1.0, 0.0, 0.0]).unwrap();
+/// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
+/// assert_eq!(slice.holes().len(), 1);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Slice {
+    wall: Feature,
+    holes: Vec<Feature, MAX_HOLES>,
+    settings: Settings,
+}
+
+impl Slice {
+    /// Validates the slice as a whole: settings in range, at least one hole, every hole
+    /// strictly inside the wall, holes pairwise disjoint and not nested.
+    pub fn new(wall: Feature, holes: &[Feature], settings: Settings) -> Result<Slice, Error> {
+        settings.validate()?;
+        if holes.is_empty() {
+            return Err(Error::NoHoles);
+        }
+        if holes.len() > MAX_HOLES {
+            return Err(Error::Capacity {
+                limit: Limit::Holes,
+                feature: None,
+            });
+        }
+        let mut stored: Vec<Feature, MAX_HOLES> = Vec::new();
+        for (i, h) in holes.iter().enumerate() {
+            let mut h = h.clone();
+            h.id = FeatureId::Hole(i as u8);
+            let hole = i as u8;
+            for (v, &p) in h.points.iter().enumerate() {
+                if !(wall.signed_distance(p) < 0.0) {
+                    return Err(Error::HoleOutsideWall {
+                        hole,
+                        vertex: v as u16,
+                    });
+                }
+            }
+            if let Some((e, we)) = polygon::boundaries_meet(&h.points, &wall.points) {
+                return Err(Error::HoleCrossesWall {
+                    hole,
+                    edge: e as u16,
+                    wall_edge: we as u16,
+                });
+            }
+            for (j, other) in stored.iter().enumerate() {
+                let j = j as u8;
+                if polygon::boundaries_meet(&other.points, &h.points).is_some() {
+                    return Err(Error::HolesOverlap { a: j, b: hole });
+                }
+                if polygon::contains(&other.points, h.points[0]) {
+                    return Err(Error::HolesNested {
+                        outer: j,
+                        inner: hole,
+                    });
+                }
+                if polygon::contains(&h.points, other.points[0]) {
+                    return Err(Error::HolesNested {
+                        outer: hole,
+                        inner: j,
+                    });
+                }
+            }
+            // Capacity was checked above.
+            let _ = stored.push(h);
+        }
+        let mut wall = wall;
+        wall.id = FeatureId::Wall;
+        Ok(Slice {
+            wall,
+            holes: stored,
+            settings,
+        })
+    }
+
+    /// The outer wall.
+    pub fn wall(&self) -> &Feature {
+        &self.wall
+    }
+    /// The hollow features, in the order of the slice file.
+    pub fn holes(&self) -> &[Feature] {
+        &self.holes
+    }
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Distance from `p` to the wall, positive inside.
+    pub fn wall_clearance(&self, p: Point) -> f32 {
+        -self.wall.signed_distance(p)
+    }
+
+    /// The nearest and second-nearest hole to `p` with their signed distances
+    /// (`(i, d_i, j, d_j)`; `j == i` and `d_j` infinite with a single hole).
+    pub fn nearest_holes(&self, p: Point) -> (usize, f32, usize, f32) {
+        let mut best = (0, f32::INFINITY, 0, f32::INFINITY);
+        for (k, h) in self.holes.iter().enumerate() {
+            if polygon::bbox_distance(h.bbox, p) >= best.3 {
+                continue;
+            }
+            let d = h.signed_distance(p);
+            if d < best.1 {
+                best = (k, d, best.0, best.1);
+            } else if d < best.3 {
+                best.2 = k;
+                best.3 = d;
+            }
+        }
+        if best.3 == f32::INFINITY {
+            best.2 = best.0;
+        }
+        best
+    }
+
+    /// The nearest hole other than `i` with its distance, if it is nearer than `limit`.
+    pub fn nearest_other_hole(&self, p: Point, i: usize, limit: f32) -> Option<(usize, f32)> {
+        let mut best: Option<(usize, f32)> = None;
+        let mut bound = limit;
+        for (k, h) in self.holes.iter().enumerate() {
+            if k == i || polygon::bbox_distance(h.bbox, p) >= bound {
+                continue;
+            }
+            let d = h.signed_distance(p);
+            if d < bound {
+                bound = d;
+                best = Some((k, d));
+            }
+        }
+        best
+    }
+
+    /// Whether `p` is in the printable region: inside the wall and outside every hole, half a
+    /// road width from each (with a tolerance `tol`).
+    pub fn is_printable(&self, p: Point, tol: f32) -> bool {
+        let half = self.settings.road_width * 0.5 - tol;
+        self.wall_clearance(p) >= half && self.nearest_holes(p).1 >= half
+    }
+}
