@@ -9,7 +9,9 @@
 
 use heapless::Vec;
 
-use crate::config::{BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS};
+use crate::config::{
+    BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS,
+};
 use crate::field::{Field, KEEP_OUT};
 use crate::geometry::{polygon, polyline, Point};
 use crate::{Error, Limit, Slice};

@@ -4,8 +4,10 @@
 //! one is an [`Error::Capacity`](crate::Error::Capacity) naming the [`Limit`](crate::Limit), never
 //! a panic and never a silently truncated plan.
 //!
-//! The sizes fit a SAME54/STM32F4-class Cortex-M4F controller (256 KiB RAM): the whole
-//! [`Planner`](crate::Planner) is about 200 KiB and is meant to live in a `static`.
+//! The sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM; the
+//! firmware's `memory.x` clips QEMU's memory to that): the whole [`Planner`](crate::Planner)
+//! is about 230 KiB and is meant to live in a `static`. `tests/capacity.rs` in host-sim prints
+//! how full each buffer gets on the reference slices.
 
 /// Most hollow features in one slice.
 pub const MAX_HOLES: usize = 8;
@@ -21,7 +23,7 @@ pub const MAX_ROAD_WIDTH_MM: f32 = 10.0;
 /// Nodes of the grid that carries the cell labels and the harmonic field.
 pub const GRID_NODES: usize = 16_384;
 /// Grid nodes next to a boundary (the Shortley-Weller table).
-pub const BOUNDARY_NODES: usize = 4_096;
+pub const BOUNDARY_NODES: usize = 3_072;
 /// Preferred grid spacing as a fraction of the road width (coarsened to fit [`GRID_NODES`]).
 pub const GRID_SPACING_PER_ROAD: f32 = 0.6;
 /// The coarsest grid accepted, as a multiple of the road width: a slice that would need a
@@ -35,22 +37,22 @@ pub const FIELD_TOLERANCE: f32 = 2.0e-6;
 pub const FIELD_OMEGA: f32 = 1.9;
 
 /// Most bisector pieces (one per adjacent pair of cells, more where the wall splits one).
-pub const MAX_BISECTORS: usize = 24;
+pub const MAX_BISECTORS: usize = 20;
 /// Most points of one stored bisector polyline.
-pub const BISECTOR_POINTS: usize = 160;
+pub const BISECTOR_POINTS: usize = 128;
 /// Most branch points.
 pub const MAX_BRANCH_POINTS: usize = 48;
 /// Grid edges where two cells meet, used as seeds for tracing bisectors.
 pub const BISECTOR_SEEDS: usize = 2_048;
 
 /// Most MCL halves (feature to cell boundary) traced in one slice.
-pub const MAX_HALVES: usize = 768;
+pub const MAX_HALVES: usize = 640;
 /// Most points of one traced half after simplification.
-pub const HALF_POINTS: usize = 20;
+pub const HALF_POINTS: usize = 16;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.
-pub const MAX_MCLS: usize = 640;
+pub const MAX_MCLS: usize = 512;
 /// Raw streamline points before simplification.
 pub const TRACE_POINTS: usize = 1_024;
 /// How often the MCL density may be doubled where MCLs diverge.

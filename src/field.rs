@@ -60,7 +60,7 @@ impl Field {
         Field {
             grid: Grid {
                 origin: Point::new(0.0, 0.0),
-                h: 1.0,
+                h: 0.0,
                 nx: 0,
                 ny: 0,
             },
@@ -79,6 +79,10 @@ impl Field {
     /// Label of node `k`: a hole index for a free node, [`KEEP_OUT`]` | i`, or [`OUTSIDE`].
     pub fn label(&self, k: usize) -> u8 {
         self.labels[k]
+    }
+    /// Number of nodes next to a boundary.
+    pub fn boundary_nodes(&self) -> usize {
+        self.boundary.len()
     }
     /// Sweeps the last solve took and the largest change in its last sweep.
     pub fn convergence(&self) -> (u32, f32) {
@@ -178,14 +182,14 @@ impl Field {
                 if self.labels[k] >= KEEP_OUT {
                     continue;
                 }
-                let target = if cursor < self.boundary.len() && self.boundary[cursor].node as usize == k
-                {
-                    let b = self.boundary[cursor];
-                    cursor += 1;
-                    self.weighted_average(k, &b)
-                } else {
-                    0.25 * (self.u[k + 1] + self.u[k - 1] + self.u[k + nx] + self.u[k - nx])
-                };
+                let target =
+                    if cursor < self.boundary.len() && self.boundary[cursor].node as usize == k {
+                        let b = self.boundary[cursor];
+                        cursor += 1;
+                        self.weighted_average(k, &b)
+                    } else {
+                        0.25 * (self.u[k + 1] + self.u[k - 1] + self.u[k + nx] + self.u[k - nx])
+                    };
                 let old = self.u[k];
                 let new = old + FIELD_OMEGA * (target - old);
                 self.u[k] = new;
@@ -277,7 +281,14 @@ impl Field {
 
 /// Level values at `p` (inside the cell of hole `i`) and at its neighbour `q` (labelled
 /// `l`) of the function that vanishes on the boundary between them, and whether `u = 1` there.
-fn boundary_levels(slice: &Slice, i: usize, l: u8, p: Point, q: Point, half: f32) -> (f32, f32, bool) {
+fn boundary_levels(
+    slice: &Slice,
+    i: usize,
+    l: u8,
+    p: Point,
+    q: Point,
+    half: f32,
+) -> (f32, f32, bool) {
     let hole = |k: usize, x: Point| slice.holes()[k].signed_distance(x);
     if l == OUTSIDE {
         (

@@ -18,6 +18,8 @@ pub struct PlanStats {
     pub grid_nodes: u32,
     /// Grid spacing, mm.
     pub grid_h: f32,
+    /// Grid nodes next to a boundary (of [`BOUNDARY_NODES`](crate::config::BOUNDARY_NODES)).
+    pub boundary_nodes: u32,
     /// Sweeps of the field solve.
     pub sweeps: u32,
     /// Largest change in the last sweep.
@@ -57,7 +59,11 @@ impl Plan {
     /// The polyline of an MCL, from its `from` hole to the wall or through `p*` to its `to`
     /// hole.
     pub fn points(&self, mcl: &Mcl) -> Vec<Point, MCL_POINTS> {
-        joined_points(&self.halves, mcl.first as usize, mcl.second.map(|s| s as usize))
+        joined_points(
+            &self.halves,
+            mcl.first as usize,
+            mcl.second.map(|s| s as usize),
+        )
     }
 
     /// The bisector pieces.
@@ -143,6 +149,7 @@ impl Planner {
                 stats: PlanStats {
                     grid_nodes: 0,
                     grid_h: 0.0,
+                    boundary_nodes: 0,
                     sweeps: 0,
                     residual: 0.0,
                     traced: 0,
@@ -191,10 +198,17 @@ impl Planner {
         let (sweeps, residual) = self.field.convergence();
         plan.stats.grid_nodes = self.field.grid().len() as u32;
         plan.stats.grid_h = self.field.grid().h;
+        plan.stats.boundary_nodes = self.field.boundary_nodes() as u32;
         plan.stats.sweeps = sweeps;
         plan.stats.residual = residual;
         debug!("field: {} sweeps, residual {}", sweeps, residual);
-        insert::insert(slice, &self.field, &mut plan.halves, &mut self.scratch, &mut plan.stats)?;
+        insert::insert(
+            slice,
+            &self.field,
+            &mut plan.halves,
+            &mut self.scratch,
+            &mut plan.stats,
+        )?;
         matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
         relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
         // Compact the halves (remapping partners), then list the MCLs.

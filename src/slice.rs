@@ -39,10 +39,16 @@ impl Feature {
         for (k, &p) in points.iter().enumerate() {
             let vertex = k.min(u16::MAX as usize) as u16;
             if !p.is_finite() {
-                return Err(Error::NonFinite { feature: id, vertex });
+                return Err(Error::NonFinite {
+                    feature: id,
+                    vertex,
+                });
             }
             if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
-                return Err(Error::OutOfRange { feature: id, vertex });
+                return Err(Error::OutOfRange {
+                    feature: id,
+                    vertex,
+                });
             }
             if pts.last() == Some(&p) {
                 continue;
@@ -67,7 +73,7 @@ impl Feature {
             });
         }
         let area = polygon::double_area(&pts) * 0.5;
-        if !(libm::fabsf(area) > 1e-6) {
+        if area.is_nan() || libm::fabsf(area) <= 1e-6 {
             return Err(Error::ZeroArea { feature: id });
         }
         if let Some((a, b)) = polygon::self_intersection(&pts) {
@@ -119,7 +125,7 @@ impl Feature {
 
 fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
     for (c, &x) in m.iter().enumerate() {
-        if !(x >= 0.0) || !x.is_finite() {
+        if x.is_nan() || x < 0.0 || !x.is_finite() {
             return Err(Error::MaterialNegative {
                 feature,
                 channel: c as u8,
@@ -192,8 +198,16 @@ impl Settings {
                 self.layer_height,
                 self.layer_height > 0.0 && self.layer_height <= config::MAX_ROAD_WIDTH_MM,
             ),
-            (SettingId::WeightNormal, self.w_n, self.w_n >= 0.0 && self.w_n <= 16.0),
-            (SettingId::WeightDistance, self.w_d, self.w_d >= 0.0 && self.w_d <= 16.0),
+            (
+                SettingId::WeightNormal,
+                self.w_n,
+                self.w_n >= 0.0 && self.w_n <= 16.0,
+            ),
+            (
+                SettingId::WeightDistance,
+                self.w_d,
+                self.w_d >= 0.0 && self.w_d <= 16.0,
+            ),
             (
                 SettingId::Delta,
                 self.delta,
@@ -202,7 +216,8 @@ impl Settings {
             (
                 SettingId::MclSpacing,
                 self.mcl_spacing,
-                self.mcl_spacing >= 0.25 * self.road_width && self.mcl_spacing <= 4.0 * self.road_width,
+                self.mcl_spacing >= 0.25 * self.road_width
+                    && self.mcl_spacing <= 4.0 * self.road_width,
             ),
             (
                 SettingId::RelaxSpacing,
@@ -268,7 +283,7 @@ impl Slice {
             h.id = FeatureId::Hole(i as u8);
             let hole = i as u8;
             for (v, &p) in h.points.iter().enumerate() {
-                if !(wall.signed_distance(p) < 0.0) {
+                if wall.signed_distance(p) >= 0.0 {
                     return Err(Error::HoleOutsideWall {
                         hole,
                         vertex: v as u16,

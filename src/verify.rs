@@ -96,8 +96,8 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     .cells
                     .between(m.from as usize, j as usize)
                     .any(|(_, b)| polyline::project(&b.points, p).2 < ON_CURVE_TOL);
-                let equidistant =
-                    libm::fabsf(hole_d(m.from as usize, p) - hole_d(j as usize, p)) < 10.0 * ON_CURVE_TOL;
+                let equidistant = libm::fabsf(hole_d(m.from as usize, p) - hole_d(j as usize, p))
+                    < 10.0 * ON_CURVE_TOL;
                 if !on_piece || !equidistant || !pts.contains(&p) {
                     return Err(Violation::JointOffBisector { mcl: id });
                 }
@@ -144,7 +144,9 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                 });
             }
             let pb = plan.points(mb);
-            if polyline::boxes_overlap(ba, polyline::bbox(&pb), 1e-4) && polyline::polylines_cross(&pa, &pb) {
+            if polyline::boxes_overlap(ba, polyline::bbox(&pb), 1e-4)
+                && polyline::polylines_cross(&pa, &pb)
+            {
                 return Err(Violation::Crossing {
                     a: a as u16,
                     b: b as u16,

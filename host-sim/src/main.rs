@@ -7,7 +7,11 @@ use clap::{Parser, Subcommand};
 use host_sim::{output, render, slice_file};
 
 #[derive(Parser)]
-#[command(name = "hollowpath", version, about = "Continuous multi-material toolpaths for scaffolds with hollow features")]
+#[command(
+    name = "hollowpath",
+    version,
+    about = "Continuous multi-material toolpaths for scaffolds with hollow features"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -34,9 +38,9 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Plan { slice, out } => {
-            slice_file::load(&slice).map_err(|e| format!("{}: {e}", slice.display())).and_then(|f| run(&f, &out))
-        }
+        Command::Plan { slice, out } => slice_file::load(&slice)
+            .map_err(|e| format!("{}: {e}", slice.display()))
+            .and_then(|f| run(&f, &out)),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| run(&f, &out)),
@@ -65,7 +69,11 @@ fn run(file: &slice_file::SliceFile, out: &Path) -> Result<(), String> {
     let pairs = plan.mcls.iter().filter(|m| m.second.is_some()).count();
     println!(
         "{}: {} MCLs ({} hole-to-hole through p*, {} to the wall), {} bisectors, {} branch points",
-        if file.name.is_empty() { "slice" } else { &file.name },
+        if file.name.is_empty() {
+            "slice"
+        } else {
+            &file.name
+        },
         plan.mcls.len(),
         pairs,
         plan.mcls.len() - pairs,
@@ -76,7 +84,11 @@ fn run(file: &slice_file::SliceFile, out: &Path) -> Result<(), String> {
         "  field {} nodes at {:.3} mm, {} sweeps; {} traced, {} unmatched removed, {} relaxation moves, {} thinned; digest {:016x}",
         s.grid_nodes, s.grid_h, s.sweeps, s.traced, s.removed_unmatched, s.relax_moves, s.thinned, plan.digest()
     );
-    println!("  wrote {}/mcls.json and {}/mcls.svg", out.display(), out.display());
+    println!(
+        "  wrote {}/mcls.json and {}/mcls.svg",
+        out.display(),
+        out.display()
+    );
     Ok(())
 }
 

@@ -33,7 +33,7 @@ pub fn mcls_json(plan: &Plan) -> Value {
         "branch_points": plan.cells.branch_points.iter().map(|&p| pt(p)).collect::<Vec<_>>(),
         "digest": format!("{:016x}", plan.digest()),
         "stats": {
-            "grid_nodes": s.grid_nodes, "grid_h": s.grid_h, "sweeps": s.sweeps,
+            "grid_nodes": s.grid_nodes, "grid_h": s.grid_h, "boundary_nodes": s.boundary_nodes, "sweeps": s.sweeps,
             "residual": s.residual, "traced": s.traced, "failed_traces": s.failed_traces,
             "dropped_crossing": s.dropped_crossing, "off_bisector": s.off_bisector,
             "matched_pairs": s.matched_pairs, "removed_unmatched": s.removed_unmatched,

@@ -72,7 +72,10 @@ impl Raster {
                     if self.last_stroke[k] == stroke {
                         continue;
                     }
-                    let p = Point::new(self.origin.x + i as f32 * self.cell, self.origin.y + j as f32 * self.cell);
+                    let p = Point::new(
+                        self.origin.x + i as f32 * self.cell,
+                        self.origin.y + j as f32 * self.cell,
+                    );
                     let (c, _) = hollowpath::geometry::polyline::closest_on_segment(a, b, p);
                     if c.dist(p) <= radius {
                         self.last_stroke[k] = stroke;

@@ -33,7 +33,13 @@ pub fn colour(m: &Material) -> String {
 fn path(pts: &[Point], close: bool) -> String {
     let mut s = String::new();
     for (k, p) in pts.iter().enumerate() {
-        let _ = write!(s, "{}{:.4},{:.4} ", if k == 0 { "M" } else { "L" }, p.x, -p.y);
+        let _ = write!(
+            s,
+            "{}{:.4},{:.4} ",
+            if k == 0 { "M" } else { "L" },
+            p.x,
+            -p.y
+        );
     }
     if close {
         s.push('Z');
@@ -57,7 +63,12 @@ pub fn mcls_svg(slice: &Slice, plan: &Plan) -> String {
         ((hi.x - lo.x + 2.0 * m) * 25.0) as u32,
         ((hi.y - lo.y + 2.0 * m) * 25.0) as u32
     );
-    let _ = writeln!(s, r#"<rect x="{}" y="{}" width="100%" height="100%" fill="white"/>"#, lo.x - m, -hi.y - m);
+    let _ = writeln!(
+        s,
+        r#"<rect x="{}" y="{}" width="100%" height="100%" fill="white"/>"#,
+        lo.x - m,
+        -hi.y - m
+    );
     let _ = writeln!(s, "<defs>");
     for (k, mcl) in plan.mcls.iter().enumerate() {
         let pts = plan.points(mcl);

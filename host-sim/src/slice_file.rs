@@ -106,7 +106,8 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
     }
     let s = &file.settings;
     let mut settings = Settings::for_road_width(
-        s.road_width.unwrap_or(hollowpath::config::defaults::ROAD_WIDTH as f64) as f32,
+        s.road_width
+            .unwrap_or(hollowpath::config::defaults::ROAD_WIDTH as f64) as f32,
     );
     let set = |v: Option<f64>, dst: &mut f32| {
         if let Some(v) = v {

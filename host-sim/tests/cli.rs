@@ -16,8 +16,16 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn plan_writes_mcls_json_and_svg() {
     let out = tmp("plan");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
-    let st = hollowpath().args(["plan", slice, "--out"]).arg(&out).output().unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let st = hollowpath()
+        .args(["plan", slice, "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("mcls.json")).unwrap()).unwrap();
     let mcls = doc["mcls"].as_array().unwrap();
@@ -49,14 +57,25 @@ fn plan_writes_mcls_json_and_svg() {
     // The same slice through the library gives the same digest.
     let f = host_sim::slice_file::load(std::path::Path::new(slice)).unwrap();
     let planner = host_sim::plan(&f.slice).unwrap();
-    assert_eq!(doc["digest"], format!("{:016x}", planner.last_plan().digest()));
+    assert_eq!(
+        doc["digest"],
+        format!("{:016x}", planner.last_plan().digest())
+    );
 }
 
 #[test]
 fn demo_runs_on_the_built_in_slice() {
     let out = tmp("demo");
-    let st = hollowpath().args(["demo", "--out"]).arg(&out).output().unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let st = hollowpath()
+        .args(["demo", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     assert!(String::from_utf8_lossy(&st.stdout).contains("four_holes"));
     assert!(out.join("mcls.svg").is_file() && out.join("mcls.json").is_file());
 }
@@ -73,13 +92,25 @@ fn an_invalid_slice_exits_non_zero_with_one_line() {
                       {"points": [[2.5,2.1],[5,2],[5,5]], "material": [0,1,0,0]}]}"#,
     )
     .unwrap();
-    let st = hollowpath().args(["plan"]).arg(&bad).arg("--out").arg(dir.join("o")).output().unwrap();
+    let st = hollowpath()
+        .args(["plan"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(dir.join("o"))
+        .output()
+        .unwrap();
     assert!(!st.status.success());
     let err = String::from_utf8_lossy(&st.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("holes 0 and 1 overlap"), "{err}");
-    assert!(!dir.join("o").exists(), "output written for an invalid slice");
-    let st = hollowpath().args(["plan", "/nonexistent/slice.json"]).output().unwrap();
+    assert!(
+        !dir.join("o").exists(),
+        "output written for an invalid slice"
+    );
+    let st = hollowpath()
+        .args(["plan", "/nonexistent/slice.json"])
+        .output()
+        .unwrap();
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("cannot read"));
 }

@@ -60,26 +60,68 @@ fn format_errors() {
     let e = err(&slice(SQUARE, &[SMALL], "").replace("\"mm\"", "\"inch\""));
     assert!(e.contains("units \"inch\""), "{e}");
     let e = err(&slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1, 0, 0, 0]"));
-    assert_eq!(e, "hole 0: material has 5 fractions, the printer has 4 channels");
+    assert_eq!(
+        e,
+        "hole 0: material has 5 fractions, the printer has 4 channels"
+    );
 }
 
 #[test]
 fn invalid_slices_name_the_feature_and_reason() {
     let cases: &[(String, &str)] = &[
-        (slice(SQUARE, &["[[0,0],[1,1]]"], ""), "hole 0: only 2 distinct points"),
-        (slice(SQUARE, &[SMALL, "[[3,3],[4,3],[4,4],[3,3.0000001e39]]"], ""), "hole 1: vertex 3 has a coordinate that is not a finite number"),
-        (slice(SQUARE, &["[[0,0],[1,1],[2,2]]"], ""), "hole 0: the polygon encloses no area"),
-        (slice(SQUARE, &["[[0,0],[4,4],[4,0],[0,2]]"], ""), "hole 0: edges 0 and 2 intersect"),
-        (slice(SQUARE, &["[[5,5],[12,5],[5,8]]"], ""), "hole 0: vertex 1 is not strictly inside the wall"),
-        (slice(SQUARE, &[SMALL, "[[0,0],[3,0],[3,3]]"], ""), "holes 0 and 1 overlap"),
-        (slice(SQUARE, &["[[-5,-5],[5,-5],[5,5],[-5,5]]", SMALL], ""), "hole 1 lies inside hole 0"),
-        (slice(SQUARE, &[SMALL], r#""road_width": 0"#), "setting road_width: 0 is out of range"),
-        (slice(SQUARE, &[SMALL], r#""road_width": -0.4"#), "setting road_width: -0.4 is out of range"),
-        (slice(SQUARE, &[SMALL], r#""layer_height": 0"#), "setting layer_height"),
+        (
+            slice(SQUARE, &["[[0,0],[1,1]]"], ""),
+            "hole 0: only 2 distinct points",
+        ),
+        (
+            slice(SQUARE, &[SMALL, "[[3,3],[4,3],[4,4],[3,3.0000001e39]]"], ""),
+            "hole 1: vertex 3 has a coordinate that is not a finite number",
+        ),
+        (
+            slice(SQUARE, &["[[0,0],[1,1],[2,2]]"], ""),
+            "hole 0: the polygon encloses no area",
+        ),
+        (
+            slice(SQUARE, &["[[0,0],[4,4],[4,0],[0,2]]"], ""),
+            "hole 0: edges 0 and 2 intersect",
+        ),
+        (
+            slice(SQUARE, &["[[5,5],[12,5],[5,8]]"], ""),
+            "hole 0: vertex 1 is not strictly inside the wall",
+        ),
+        (
+            slice(SQUARE, &[SMALL, "[[0,0],[3,0],[3,3]]"], ""),
+            "holes 0 and 1 overlap",
+        ),
+        (
+            slice(SQUARE, &["[[-5,-5],[5,-5],[5,5],[-5,5]]", SMALL], ""),
+            "hole 1 lies inside hole 0",
+        ),
+        (
+            slice(SQUARE, &[SMALL], r#""road_width": 0"#),
+            "setting road_width: 0 is out of range",
+        ),
+        (
+            slice(SQUARE, &[SMALL], r#""road_width": -0.4"#),
+            "setting road_width: -0.4 is out of range",
+        ),
+        (
+            slice(SQUARE, &[SMALL], r#""layer_height": 0"#),
+            "setting layer_height",
+        ),
         (slice(SQUARE, &[], ""), "no hollow feature"),
-        (slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1.5, -0.5, 0]"), "hole 0: material fraction of channel 2 is negative"),
-        (slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 0.5, 0.2, 0]"), "hole 0: material fractions sum to 0.7"),
-        (slice("[[-10,-10],[10,-10],[10,1e6],[-10,10]]", &[SMALL], ""), "the wall: vertex 2 lies beyond 1000 mm"),
+        (
+            slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1.5, -0.5, 0]"),
+            "hole 0: material fraction of channel 2 is negative",
+        ),
+        (
+            slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 0.5, 0.2, 0]"),
+            "hole 0: material fractions sum to 0.7",
+        ),
+        (
+            slice("[[-10,-10],[10,-10],[10,1e6],[-10,10]]", &[SMALL], ""),
+            "the wall: vertex 2 lies beyond 1000 mm",
+        ),
     ];
     for (text, expected) in cases {
         let e = err(text);
@@ -97,7 +139,10 @@ fn capacity_limits_are_errors() {
         })
         .collect();
     let e = err(&slice(&format!("[{}]", many.join(",")), &[SMALL], ""));
-    assert_eq!(e, "invalid slice: the wall: capacity exceeded: more than 256 vertices in one polygon");
+    assert_eq!(
+        e,
+        "invalid slice: the wall: capacity exceeded: more than 256 vertices in one polygon"
+    );
     let holes: Vec<String> = (0..9)
         .map(|k| {
             let x = -8.0 + 2.0 * k as f64;
@@ -106,7 +151,10 @@ fn capacity_limits_are_errors() {
         .collect();
     let refs: Vec<&str> = holes.iter().map(|s| s.as_str()).collect();
     let e = err(&slice(SQUARE, &refs, ""));
-    assert_eq!(e, "invalid slice: hole 8: capacity exceeded: more than 8 hollow features");
+    assert_eq!(
+        e,
+        "invalid slice: hole 8: capacity exceeded: more than 8 hollow features"
+    );
     // A valid slice too fine for the planner's buffers is refused, not truncated.
     let f = parse(&slice(
         "[[-60,-60],[60,-60],[60,60],[-60,60]]",
@@ -117,9 +165,15 @@ fn capacity_limits_are_errors() {
     let mut planner = Box::new(hollowpath::Planner::new());
     match planner.plan(&f.slice) {
         Err(hollowpath::Error::Capacity { .. }) => {}
-        other => panic!("expected a capacity error, got {:?}", other.map(|p| p.mcls.len())),
+        other => panic!(
+            "expected a capacity error, got {:?}",
+            other.map(|p| p.mcls.len())
+        ),
     }
-    assert!(planner.last_plan().mcls.is_empty(), "a failed run left a partial plan");
+    assert!(
+        planner.last_plan().mcls.is_empty(),
+        "a failed run left a partial plan"
+    );
 }
 
 #[test]

@@ -66,17 +66,17 @@ pub fn tangent_at(pts: &[Point], s: f32) -> Point {
 }
 
 /// Simplify `pts` into `out` so that no dropped point is farther than `tol` from the kept
-/// chord. The ends are always kept. Returns `Err(())` when `out` fills up.
+/// chord. The ends are always kept. Returns the point that did not fit when `out` fills up.
 pub fn simplify<const N: usize>(
     pts: &[Point],
     tol: f32,
     out: &mut heapless::Vec<Point, N>,
-) -> Result<(), ()> {
+) -> Result<(), Point> {
     out.clear();
     if pts.is_empty() {
         return Ok(());
     }
-    out.push(pts[0]).map_err(|_| ())?;
+    out.push(pts[0])?;
     let mut anchor = 0;
     let mut k = 2;
     while k < pts.len() {
@@ -85,13 +85,13 @@ pub fn simplify<const N: usize>(
             .iter()
             .any(|&q| closest_on_segment(a, b, q).0.dist(q) > tol);
         if too_far {
-            out.push(pts[k - 1]).map_err(|_| ())?;
+            out.push(pts[k - 1])?;
             anchor = k - 1;
         }
         k += 1;
     }
     if pts.len() > 1 {
-        out.push(pts[pts.len() - 1]).map_err(|_| ())?;
+        out.push(pts[pts.len() - 1])?;
     }
     Ok(())
 }

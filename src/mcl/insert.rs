@@ -36,13 +36,25 @@ pub fn insert(
         let n0 = libm::ceilf(hole.length / settings.mcl_spacing).max(3.0) as usize;
         let ds = hole.length / n0 as f32;
         for k in 0..n0 {
-            trace_half(slice, field, &hole, k as f32 * ds, 0, halves, scratch, stats)?;
+            trace_half(
+                slice,
+                field,
+                &hole,
+                k as f32 * ds,
+                0,
+                halves,
+                scratch,
+                stats,
+            )?;
         }
         for depth in 1..=MAX_REFINE_DEPTH {
             let order = sorted_halves(halves, i);
             let mut added = false;
             for k in 0..order.len() {
-                let (sa, ea) = (halves[order[k] as usize].s, halves[order[k] as usize].end_point());
+                let (sa, ea) = (
+                    halves[order[k] as usize].s,
+                    halves[order[k] as usize].end_point(),
+                );
                 let next = order[(k + 1) % order.len()] as usize;
                 let (sb, eb) = (halves[next].s, halves[next].end_point());
                 let mut gap_s = sb - sa;
@@ -51,7 +63,8 @@ pub fn insert(
                 }
                 if ea.dist(eb) > MAX_END_GAP_PER_ROAD * w && gap_s > 1e-3 {
                     let s = (sa + 0.5 * gap_s) % hole.length;
-                    added |= trace_half(slice, field, &hole, s, depth as u8, halves, scratch, stats)?;
+                    added |=
+                        trace_half(slice, field, &hole, s, depth as u8, halves, scratch, stats)?;
                 }
             }
             if !added {
@@ -66,7 +79,11 @@ pub fn insert(
                 continue;
             }
             if polyline::polylines_cross(&halves[ia].points, &halves[ib].points) {
-                let drop = if halves[ia].depth >= halves[ib].depth { ia } else { ib };
+                let drop = if halves[ia].depth >= halves[ib].depth {
+                    ia
+                } else {
+                    ib
+                };
                 halves[drop].alive = false;
                 stats.dropped_crossing += 1;
             }
@@ -99,7 +116,10 @@ pub(crate) fn sorted_all(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
     let mut order: Vec<u16, MAX_HALVES> = (0..halves.len() as u16).collect();
     order.sort_unstable_by(|&a, &b| {
         let (x, y) = (&halves[a as usize], &halves[b as usize]);
-        x.hole.cmp(&y.hole).then(x.s.total_cmp(&y.s)).then(a.cmp(&b))
+        x.hole
+            .cmp(&y.hole)
+            .then(x.s.total_cmp(&y.s))
+            .then(a.cmp(&b))
     });
     order
 }
@@ -141,8 +161,14 @@ impl<'a> Hole<'a> {
             let (a, b) = (self.pts[k], self.pts[(k + 1) % n]);
             let l = a.dist(b);
             if acc + l > s || k == n - 1 {
-                let t = if l > 0.0 { ((s - acc) / l).clamp(0.0, 1.0) } else { 0.0 };
-                let nrm = self.normals[k].lerp(self.normals[(k + 1) % n], t).normalized();
+                let t = if l > 0.0 {
+                    ((s - acc) / l).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let nrm = self.normals[k]
+                    .lerp(self.normals[(k + 1) % n], t)
+                    .normalized();
                 return (a.lerp(b, t), nrm);
             }
             acc += l;
@@ -231,7 +257,9 @@ fn trace(
         let (n, d) = away_from_hole(slice, i, x);
         let weight = ((d - half) / h).clamp(0.0, 1.0);
         match field.gradient(x, i) {
-            Some(g) if g.norm2() > 1e-12 => (n * (1.0 - weight) + g.normalized() * weight).normalized(),
+            Some(g) if g.norm2() > 1e-12 => {
+                (n * (1.0 - weight) + g.normalized() * weight).normalized()
+            }
             _ => n,
         }
     };

@@ -61,7 +61,12 @@ struct Match {
 }
 
 /// Matches across every bisector of `cells`; removes the unmatched bisector halves.
-pub fn match_all(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, stats: &mut PlanStats) {
+pub fn match_all(
+    slice: &Slice,
+    cells: &Cells,
+    halves: &mut Vec<Half, MAX_HALVES>,
+    stats: &mut PlanStats,
+) {
     let settings = *slice.settings();
     // Put every bisector end on its bisector piece.
     for h in halves.iter_mut() {
@@ -91,7 +96,9 @@ pub fn match_all(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES
     for (k, bis) in cells.bisectors.iter().enumerate() {
         let mut cands: Vec<Candidate, MAX_HALVES> = Vec::new();
         for (idx, h) in halves.iter().enumerate() {
-            let Some((bk, u)) = h.on_bisector else { continue };
+            let Some((bk, u)) = h.on_bisector else {
+                continue;
+            };
             if bk as usize != k || !h.alive {
                 continue;
             }
@@ -100,7 +107,13 @@ pub fn match_all(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES
             let (nb, _) = away_from_hole(slice, bis.b as usize, p);
             let side_a = h.hole == bis.a;
             let normal = if side_a { na - nb } else { nb - na }.normalized();
-            let f = objective(normal, h.start_normal, p.dist(h.start()), settings.w_n, settings.w_d);
+            let f = objective(
+                normal,
+                h.start_normal,
+                p.dist(h.start()),
+                settings.w_n,
+                settings.w_d,
+            );
             // At most MAX_HALVES candidates exist.
             let _ = cands.push(Candidate {
                 half: idx as u16,
@@ -133,7 +146,8 @@ pub fn match_all(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES
                         continue;
                     }
                     let d = libm::fabsf(o.u - me.u);
-                    if d < settings.delta && near.is_none_or(|n| d < libm::fabsf(cands[n].u - me.u)) {
+                    if d < settings.delta && near.is_none_or(|n| d < libm::fabsf(cands[n].u - me.u))
+                    {
                         near = Some(c);
                     }
                 }
@@ -195,7 +209,9 @@ fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point
     let mut hy = halves[y].clone();
     hx.reshape_end(pstar);
     hy.reshape_end(pstar);
-    if crosses_finished(halves, &hx.points, &[x, y]) || crosses_finished(halves, &hy.points, &[x, y]) {
+    if crosses_finished(halves, &hx.points, &[x, y])
+        || crosses_finished(halves, &hy.points, &[x, y])
+    {
         return false;
     }
     hx.partner = Some(y as u16);
@@ -218,7 +234,11 @@ pub(crate) fn crosses_finished(halves: &[Half], pts: &[Point], skip: &[usize]) -
 }
 
 /// Points of a finished MCL made of halves `first` and (optionally) `second`.
-pub(crate) fn joined_points(halves: &[Half], first: usize, second: Option<usize>) -> Vec<Point, MCL_POINTS> {
+pub(crate) fn joined_points(
+    halves: &[Half],
+    first: usize,
+    second: Option<usize>,
+) -> Vec<Point, MCL_POINTS> {
     let mut out: Vec<Point, MCL_POINTS> = Vec::new();
     for &p in halves[first].points.iter() {
         let _ = out.push(p);

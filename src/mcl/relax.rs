@@ -50,50 +50,26 @@ fn ring_neighbours(halves: &[Half], holes: usize) -> Vec<(u16, u16), MAX_HALVES>
 }
 
 /// Relaxes and thins the ends of `halves`.
-pub fn relax(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, stats: &mut PlanStats) {
+pub fn relax(
+    slice: &Slice,
+    cells: &Cells,
+    halves: &mut Vec<Half, MAX_HALVES>,
+    stats: &mut PlanStats,
+) {
     let settings = *slice.settings();
     let spacing = settings.relax_spacing;
     let ring = ring_neighbours(halves, slice.holes().len());
     for _ in 0..settings.relax_iterations {
+        // Jacobi-style: every step is computed from the same state, then applied, so the
+        // result does not depend on the order of the ends (symmetric slices stay symmetric).
         let list = ends(halves);
-        let mut moved = false;
+        let mut steps: Vec<Point, MAX_HALVES> = Vec::new();
         for &e in list.iter() {
-            let e = e as usize;
-            let here = halves[e].end_point();
-            // Smoothing: towards the middle of the neighbours around the hole(s) it joins.
-            let mut pull = Point::default();
-            for k in [Some(e), halves[e].partner.map(|p| p as usize)].into_iter().flatten() {
-                let (prev, next) = ring[k];
-                let (prev, next) = (halves[prev as usize].end_point(), halves[next as usize].end_point());
-                pull = pull + ((prev - here) + (next - here)) * 0.25;
-            }
-            // Repulsion: away from every end nearer than the spacing.
-            let mut push = Point::default();
-            for &o in list.iter() {
-                let o = o as usize;
-                if o == e {
-                    continue;
-                }
-                let d = here.dist(halves[o].end_point());
-                if d < spacing {
-                    let away = if d > 1e-6 {
-                        (here - halves[o].end_point()) * (1.0 / d)
-                    } else {
-                        // Coincident ends: push along the order of their starts.
-                        Point::new(if e < o { -1.0 } else { 1.0 }, 0.0)
-                    };
-                    push = push + away * (0.5 * (spacing - d));
-                }
-            }
-            let mut step = pull + push;
-            let len = step.norm();
-            if len < 1e-4 * spacing {
-                continue;
-            }
-            if len > 0.5 * spacing {
-                step = step * (0.5 * spacing / len);
-            }
-            if try_move(slice, cells, halves, e, step) {
+            let _ = steps.push(relax_step(halves, &ring, &list, e as usize, spacing));
+        }
+        let mut moved = false;
+        for (&e, &step) in list.iter().zip(steps.iter()) {
+            if step.norm2() > 0.0 && try_move(slice, cells, halves, e as usize, step) {
                 stats.relax_moves += 1;
                 moved = true;
             }
@@ -125,8 +101,59 @@ pub fn relax(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, s
     }
 }
 
+/// The relaxation step of end `e`: towards the middle of its neighbours around the hole(s) it
+/// joins (smoothing), and away from every end nearer than `spacing` (repulsion), at most half
+/// the spacing long.
+fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spacing: f32) -> Point {
+    let here = halves[e].end_point();
+    let mut pull = Point::default();
+    for k in [Some(e), halves[e].partner.map(|p| p as usize)]
+        .into_iter()
+        .flatten()
+    {
+        let (prev, next) = ring[k];
+        let (prev, next) = (
+            halves[prev as usize].end_point(),
+            halves[next as usize].end_point(),
+        );
+        pull = pull + ((prev - here) + (next - here)) * 0.25;
+    }
+    let mut push = Point::default();
+    for &o in list.iter() {
+        let o = o as usize;
+        if o == e {
+            continue;
+        }
+        let d = here.dist(halves[o].end_point());
+        if d < spacing {
+            let away = if d > 1e-6 {
+                (here - halves[o].end_point()) * (1.0 / d)
+            } else {
+                // Coincident ends: push along the order of their starts.
+                Point::new(if e < o { -1.0 } else { 1.0 }, 0.0)
+            };
+            push = push + away * (0.5 * (spacing - d));
+        }
+    }
+    let step = pull + push;
+    let len = step.norm();
+    if len < 1e-4 * spacing {
+        Point::default()
+    } else if len > 0.5 * spacing {
+        step * (0.5 * spacing / len)
+    } else {
+        step
+    }
+}
+
 /// Moves end `e` by (the projection onto its curve of) `push`; false if the move is refused.
-fn try_move(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, e: usize, push: Point) -> bool {
+fn try_move(
+    slice: &Slice,
+    cells: &Cells,
+    halves: &mut Vec<Half, MAX_HALVES>,
+    e: usize,
+    push: Point,
+) -> bool {
     let half = 0.5 * slice.settings().road_width;
     let here = halves[e].end_point();
     let hole = halves[e].hole as usize;
@@ -144,8 +171,16 @@ fn try_move(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, e:
             let t = (wall[(edge + 1) % wall.len()] - wall[edge]).normalized();
             let moved = here + t * push.dot(t);
             let (c, _, _) = polygon::closest(wall, moved);
-            let inward = if polygon::contains(wall, moved) { moved - c } else { c - moved };
-            let inward = if inward.norm2() > 1e-12 { inward.normalized() } else { (here - c).normalized() };
+            let inward = if polygon::contains(wall, moved) {
+                moved - c
+            } else {
+                c - moved
+            };
+            let inward = if inward.norm2() > 1e-12 {
+                inward.normalized()
+            } else {
+                (here - c).normalized()
+            };
             (c + inward * half, None)
         }
     };
@@ -164,7 +199,8 @@ fn try_move(slice: &Slice, cells: &Cells, halves: &mut Vec<Half, MAX_HALVES>, e:
     });
     let skip = [e, partner.unwrap_or(e)];
     if crosses_finished(halves, &a.points, &skip)
-        || b.as_ref().is_some_and(|b| crosses_finished(halves, &b.points, &skip))
+        || b.as_ref()
+            .is_some_and(|b| crosses_finished(halves, &b.points, &skip))
     {
         return false;
     }

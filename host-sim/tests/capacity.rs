@@ -1,0 +1,25 @@
+//! How full the core's fixed buffers get on the reference slices: a guard that the capacities
+//! in `config.rs` leave head-room (at least a quarter free) for slices like these.
+
+use hollowpath::config::{BOUNDARY_NODES, MAX_BISECTORS, MAX_HALVES, MAX_MCLS};
+use host_sim::{slice_file, REFERENCE_SLICES};
+
+#[test]
+fn reference_slices_leave_head_room_in_every_buffer() {
+    for (name, text) in REFERENCE_SLICES {
+        let slice = slice_file::parse(text).unwrap().slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        let s = plan.stats;
+        let rows = [
+            ("boundary nodes", s.boundary_nodes as usize, BOUNDARY_NODES),
+            ("traced halves", s.traced as usize, MAX_HALVES),
+            ("MCLs", plan.mcls.len(), MAX_MCLS),
+            ("bisectors", plan.bisectors().len(), MAX_BISECTORS),
+        ];
+        for (what, used, cap) in rows {
+            println!("{name}: {what} {used} of {cap}");
+            assert!(used * 4 <= cap * 3, "{name}: {what} {used} of {cap}");
+        }
+    }
+}

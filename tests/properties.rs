@@ -1,0 +1,124 @@
+//! Property tests over random valid slices: whatever the shape, a plan keeps every invariant.
+
+mod common;
+
+use common::feature;
+use hollowpath::geometry::Point;
+use hollowpath::verify::verify;
+use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
+use proptest::prelude::*;
+
+/// A star-shaped blob: radius `r (1 + a cos(k t + phase))`, stretched by `sx`, `sy`.
+#[allow(clippy::too_many_arguments)]
+fn blob(c: Point, r: f32, sx: f32, sy: f32, a: f32, k: f32, phase: f32, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|i| {
+            let t = i as f32 / n as f32 * std::f32::consts::TAU;
+            let rr = r * (1.0 + a * (k * t + phase).cos());
+            Point::new(c.x + sx * rr * t.cos(), c.y + sy * rr * t.sin())
+        })
+        .collect()
+}
+
+#[derive(Debug, Clone)]
+struct HoleSpec {
+    at: (f32, f32),
+    r: f32,
+    wobble: f32,
+    lobes: f32,
+    phase: f32,
+}
+
+fn hole_spec() -> impl Strategy<Value = HoleSpec> {
+    (
+        (-1.0f32..1.0, -1.0f32..1.0),
+        1.2f32..3.5,
+        0.0f32..0.3,
+        prop_oneof![Just(2.0f32), Just(3.0f32)],
+        0.0f32..6.3,
+    )
+        .prop_map(|(at, r, wobble, lobes, phase)| HoleSpec {
+            at,
+            r,
+            wobble,
+            lobes,
+            phase,
+        })
+}
+
+/// A random valid slice: a wobbly elliptic wall and up to five wobbly (possibly concave) holes
+/// kept a millimetre from the wall and from each other (holes that do not fit are skipped).
+fn random_slice(
+    rx: f32,
+    ry: f32,
+    wall_wobble: f32,
+    holes: &[HoleSpec],
+    road_width: f32,
+) -> Option<Slice> {
+    let wall = feature(
+        FeatureId::Wall,
+        &blob(
+            Point::new(0.0, 0.0),
+            1.0,
+            rx,
+            ry,
+            wall_wobble,
+            3.0,
+            0.4,
+            128,
+        ),
+        [1.0, 0.0, 0.0, 0.0],
+    );
+    let mut placed: Vec<Feature> = Vec::new();
+    for (k, h) in holes.iter().enumerate() {
+        let c = Point::new(h.at.0 * 0.7 * rx, h.at.1 * 0.7 * ry);
+        let pts = blob(c, h.r, 1.0, 1.0, h.wobble, h.lobes, h.phase, 48);
+        let clear_wall = pts.iter().all(|&p| wall.signed_distance(p) < -1.0);
+        let clear_holes = placed.iter().all(|o| {
+            pts.iter().all(|&p| o.signed_distance(p) > 1.0)
+                && o.points()
+                    .iter()
+                    .all(|&q| pts.iter().all(|&p| p.dist(q) > 1.0))
+        });
+        if clear_wall && clear_holes {
+            let mut m = [0.0; 4];
+            m[1 + k % 3] = 1.0;
+            placed.push(Feature::new(FeatureId::Hole(placed.len() as u8), &pts, m).ok()?);
+        }
+    }
+    if placed.is_empty() {
+        return None;
+    }
+    Slice::new(wall, &placed, Settings::for_road_width(road_width)).ok()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_slices_plan_into_valid_mcls(
+        rx in 9.0f32..17.0,
+        ry in 9.0f32..17.0,
+        wall_wobble in 0.0f32..0.15,
+        holes in proptest::collection::vec(hole_spec(), 1..6),
+        road_width in 0.35f32..0.55,
+    ) {
+        let slice = random_slice(rx, ry, wall_wobble, &holes, road_width);
+        prop_assume!(slice.is_some());
+        let slice = slice.unwrap();
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(&slice).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+        if let Err(v) = verify(&slice, plan) {
+            return Err(TestCaseError::fail(format!("{v:?}")));
+        }
+        for i in 0..slice.holes().len() {
+            prop_assert!(
+                plan.mcls.iter().any(|m| m.from as usize == i || m.to == hollowpath::Target::Hole(i as u8)),
+                "hole {} has no MCL", i
+            );
+        }
+        let digest = plan.digest();
+        let again = planner.plan(&slice).unwrap().digest();
+        prop_assert_eq!(digest, again);
+    }
+}

@@ -1,0 +1,376 @@
+//! Every kind of invalid slice is refused with its own error naming the feature and reason.
+
+mod common;
+
+use common::{circle, feature, A, B, WALL};
+use hollowpath::geometry::Point;
+use hollowpath::{Error, Feature, FeatureId, Limit, SettingId, Settings, Slice};
+
+fn pts(v: &[(f32, f32)]) -> Vec<Point> {
+    v.iter().map(|&(x, y)| Point::new(x, y)).collect()
+}
+
+fn square(c: (f32, f32), r: f32) -> Vec<Point> {
+    pts(&[
+        (c.0 - r, c.1 - r),
+        (c.0 + r, c.1 - r),
+        (c.0 + r, c.1 + r),
+        (c.0 - r, c.1 + r),
+    ])
+}
+
+fn wall() -> Feature {
+    feature(FeatureId::Wall, &square((0.0, 0.0), 10.0), WALL)
+}
+
+fn hole(i: u8, p: &[Point]) -> Result<Feature, Error> {
+    Feature::new(FeatureId::Hole(i), p, A)
+}
+
+fn slice_err(holes: &[Feature]) -> Error {
+    Slice::new(wall(), holes, Settings::default()).unwrap_err()
+}
+
+#[test]
+fn polygon_errors() {
+    let h = FeatureId::Hole(3);
+    assert_eq!(
+        Feature::new(h, &pts(&[(0.0, 0.0), (1.0, 0.0)]), A),
+        Err(Error::TooFewPoints {
+            feature: h,
+            distinct: 2
+        })
+    );
+    // Repeats do not count as distinct points.
+    assert_eq!(
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.0), (1.0, 0.0)]),
+            A
+        ),
+        Err(Error::TooFewPoints {
+            feature: h,
+            distinct: 2
+        })
+    );
+    assert_eq!(
+        Feature::new(h, &pts(&[(0.0, 0.0), (1.0, f32::NAN), (0.0, 1.0)]), A),
+        Err(Error::NonFinite {
+            feature: h,
+            vertex: 1
+        })
+    );
+    assert_eq!(
+        Feature::new(h, &pts(&[(0.0, 0.0), (1.0, 0.0), (f32::INFINITY, 1.0)]), A),
+        Err(Error::NonFinite {
+            feature: h,
+            vertex: 2
+        })
+    );
+    assert_eq!(
+        Feature::new(h, &pts(&[(0.0, 0.0), (5000.0, 0.0), (0.0, 1.0)]), A),
+        Err(Error::OutOfRange {
+            feature: h,
+            vertex: 1
+        })
+    );
+    assert_eq!(
+        Feature::new(h, &pts(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0)]), A),
+        Err(Error::ZeroArea { feature: h })
+    );
+    assert_eq!(
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (4.0, 4.0), (4.0, 0.0), (0.0, 2.0)]),
+            A
+        ),
+        Err(Error::SelfIntersection {
+            feature: h,
+            edge_a: 0,
+            edge_b: 2
+        })
+    );
+    let many = circle(0.0, 0.0, 5.0, 300, 0.0);
+    assert_eq!(
+        Feature::new(FeatureId::Wall, &many, WALL),
+        Err(Error::Capacity {
+            limit: Limit::Vertices,
+            feature: Some(FeatureId::Wall)
+        })
+    );
+}
+
+#[test]
+fn material_errors() {
+    let p = square((0.0, 0.0), 1.0);
+    assert_eq!(
+        Feature::new(FeatureId::Hole(0), &p, [0.5, -0.1, 0.6, 0.0]),
+        Err(Error::MaterialNegative {
+            feature: FeatureId::Hole(0),
+            channel: 1
+        })
+    );
+    assert_eq!(
+        Feature::new(FeatureId::Hole(0), &p, [0.5, f32::NAN, 0.5, 0.0]),
+        Err(Error::MaterialNegative {
+            feature: FeatureId::Hole(0),
+            channel: 1
+        })
+    );
+    assert!(matches!(
+        Feature::new(FeatureId::Wall, &p, [0.5, 0.2, 0.0, 0.0]),
+        Err(Error::MaterialSum {
+            feature: FeatureId::Wall,
+            ..
+        })
+    ));
+    // Either orientation, and a repeated closing point, are fine.
+    let mut cw = p.clone();
+    cw.reverse();
+    cw.push(cw[0]);
+    assert_eq!(
+        Feature::new(FeatureId::Hole(0), &cw, A)
+            .unwrap()
+            .points()
+            .len(),
+        4
+    );
+}
+
+#[test]
+fn hole_placement_errors() {
+    // A vertex outside the wall.
+    let out = hole(0, &pts(&[(5.0, 5.0), (12.0, 5.0), (5.0, 8.0)])).unwrap();
+    assert_eq!(
+        slice_err(&[out]),
+        Error::HoleOutsideWall { hole: 0, vertex: 1 }
+    );
+    // A vertex exactly on the wall is not strictly inside.
+    let on = hole(0, &pts(&[(5.0, 5.0), (10.0, 5.0), (5.0, 8.0)])).unwrap();
+    assert_eq!(
+        slice_err(&[on]),
+        Error::HoleOutsideWall { hole: 0, vertex: 1 }
+    );
+    // All vertices inside a U-shaped wall, but an edge crosses the notch.
+    let u = feature(
+        FeatureId::Wall,
+        &pts(&[
+            (-10.0, -10.0),
+            (10.0, -10.0),
+            (10.0, 10.0),
+            (2.0, 10.0),
+            (2.0, 0.0),
+            (-2.0, 0.0),
+            (-2.0, 10.0),
+            (-10.0, 10.0),
+        ]),
+        WALL,
+    );
+    let bridge = hole(0, &pts(&[(-5.0, 5.0), (5.0, 5.0), (5.0, 6.0), (-5.0, 6.0)])).unwrap();
+    assert!(matches!(
+        Slice::new(u, &[bridge], Settings::default()),
+        Err(Error::HoleCrossesWall { hole: 0, .. })
+    ));
+    // Overlapping and nested holes.
+    let a = hole(0, &square((0.0, 0.0), 2.0)).unwrap();
+    let b = hole(1, &square((1.0, 1.0), 2.0)).unwrap();
+    assert_eq!(
+        slice_err(&[a.clone(), b]),
+        Error::HolesOverlap { a: 0, b: 1 }
+    );
+    let small = hole(1, &square((0.5, 0.5), 0.5)).unwrap();
+    assert_eq!(
+        slice_err(&[a.clone(), small.clone()]),
+        Error::HolesNested { outer: 0, inner: 1 }
+    );
+    assert_eq!(
+        slice_err(&[small, a]),
+        Error::HolesNested { outer: 1, inner: 0 }
+    );
+    // Touching holes overlap.
+    let left = hole(0, &square((-1.0, 0.0), 1.0)).unwrap();
+    let right = Feature::new(FeatureId::Hole(1), &square((1.0, 0.0), 1.0), B).unwrap();
+    assert_eq!(
+        slice_err(&[left, right]),
+        Error::HolesOverlap { a: 0, b: 1 }
+    );
+}
+
+#[test]
+fn slice_level_errors() {
+    assert_eq!(slice_err(&[]), Error::NoHoles);
+    let holes: Vec<Feature> = (0..9)
+        .map(|k| hole(k as u8, &square((-8.0 + 2.0 * k as f32, 0.0), 0.5)).unwrap())
+        .collect();
+    assert_eq!(
+        slice_err(&holes),
+        Error::Capacity {
+            limit: Limit::Holes,
+            feature: None
+        }
+    );
+    let h = hole(0, &square((0.0, 0.0), 2.0)).unwrap();
+    for (settings, id, value) in [
+        (
+            Settings {
+                road_width: 0.0,
+                ..Settings::default()
+            },
+            SettingId::RoadWidth,
+            0.0,
+        ),
+        (
+            Settings {
+                road_width: -1.0,
+                ..Settings::default()
+            },
+            SettingId::RoadWidth,
+            -1.0,
+        ),
+        (
+            Settings {
+                road_width: 50.0,
+                ..Settings::default()
+            },
+            SettingId::RoadWidth,
+            50.0,
+        ),
+        (
+            Settings {
+                layer_height: 0.0,
+                ..Settings::default()
+            },
+            SettingId::LayerHeight,
+            0.0,
+        ),
+        (
+            Settings {
+                w_n: -1.0,
+                ..Settings::default()
+            },
+            SettingId::WeightNormal,
+            -1.0,
+        ),
+        (
+            Settings {
+                w_d: -0.5,
+                ..Settings::default()
+            },
+            SettingId::WeightDistance,
+            -0.5,
+        ),
+        (
+            Settings {
+                delta: 0.0,
+                ..Settings::default()
+            },
+            SettingId::Delta,
+            0.0,
+        ),
+        (
+            Settings {
+                mcl_spacing: 0.01,
+                ..Settings::default()
+            },
+            SettingId::MclSpacing,
+            0.01,
+        ),
+        (
+            Settings {
+                relax_spacing: -0.1,
+                ..Settings::default()
+            },
+            SettingId::RelaxSpacing,
+            -0.1,
+        ),
+    ] {
+        assert_eq!(
+            Slice::new(wall(), std::slice::from_ref(&h), settings),
+            Err(Error::InvalidSetting { setting: id, value })
+        );
+    }
+    let nan = Settings {
+        road_width: f32::NAN,
+        ..Settings::default()
+    };
+    assert!(matches!(
+        Slice::new(wall(), &[h], nan),
+        Err(Error::InvalidSetting {
+            setting: SettingId::RoadWidth,
+            ..
+        })
+    ));
+}
+
+#[test]
+fn messages_name_feature_and_reason() {
+    let cases = [
+        (
+            Error::HoleOutsideWall { hole: 2, vertex: 7 },
+            "hole 2: vertex 7 is not strictly inside the wall",
+        ),
+        (
+            Error::HolesNested { outer: 0, inner: 1 },
+            "hole 1 lies inside hole 0 (nested holes)",
+        ),
+        (
+            Error::SelfIntersection {
+                feature: FeatureId::Wall,
+                edge_a: 1,
+                edge_b: 5,
+            },
+            "the wall: edges 1 and 5 intersect (self-intersecting polygon)",
+        ),
+        (
+            Error::Capacity {
+                limit: Limit::Mcls,
+                feature: None,
+            },
+            "capacity exceeded: more than 512 material changing lines",
+        ),
+        (
+            Error::InvalidSetting {
+                setting: SettingId::Delta,
+                value: -1.0,
+            },
+            "setting delta: -1 is out of range",
+        ),
+    ];
+    assert_eq!(
+        hollowpath::config::MAX_MCLS,
+        512,
+        "update the message above"
+    );
+    for (e, text) in cases {
+        assert_eq!(e.to_string(), text);
+    }
+}
+
+#[test]
+fn a_failed_plan_leaves_no_partial_plan() {
+    // Plan a good slice, then one too large for the grid: the second fails and the first's
+    // MCLs are gone.
+    let mut planner = Box::new(hollowpath::Planner::new());
+    let good = Slice::new(
+        wall(),
+        &[hole(0, &circle(0.0, 0.0, 3.0, 32, 0.0)).unwrap()],
+        Settings::default(),
+    )
+    .unwrap();
+    assert!(!planner.plan(&good).unwrap().mcls.is_empty());
+    let big_wall = feature(FeatureId::Wall, &square((0.0, 0.0), 200.0), WALL);
+    let big = Slice::new(
+        big_wall,
+        &[hole(0, &circle(0.0, 0.0, 3.0, 32, 0.0)).unwrap()],
+        Settings::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        planner.plan(&big).unwrap_err(),
+        Error::Capacity {
+            limit: Limit::GridNodes,
+            feature: None
+        }
+    );
+    assert!(planner.last_plan().mcls.is_empty() && planner.last_plan().halves.is_empty());
+}
