@@ -13,7 +13,7 @@ use crate::config::{
     BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS,
 };
 use crate::field::{Field, KEEP_OUT};
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polyline, Point};
 use crate::{Error, Limit, Slice};
 
 /// The boundary between the cells of holes `a < b`, as a polyline from one branch point to the
@@ -60,14 +60,8 @@ struct Seed {
 
 /// Unit vector away from the nearest point of hole `i` (the gradient of the distance).
 pub(crate) fn away_from_hole(slice: &Slice, i: usize, p: Point) -> (Point, f32) {
-    let h = &slice.holes()[i];
-    let (c, d, _) = polygon::closest(h.points(), p);
-    let n = (p - c).normalized();
-    if h.signed_distance(p) < 0.0 {
-        (-n, -d)
-    } else {
-        (n, d)
-    }
+    let near = slice.holes()[i].nearest(p);
+    (near.gradient(p), near.distance)
 }
 
 /// Finds where `f` changes sign between `p` (`f(p) > 0`) and `q` (`f(q) <= 0`).

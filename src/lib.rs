@@ -57,6 +57,8 @@ pub mod slice;
 pub mod verify;
 
 pub use error::{Error, FeatureId, Limit, SettingId};
+/// The fixed-capacity collections the public types are made of.
+pub use heapless;
 pub use mcl::{Mcl, Target};
 pub use plan::{Plan, PlanStats, Planner};
 pub use slice::{Feature, Material, Settings, Slice};

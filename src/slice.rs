@@ -7,7 +7,7 @@
 use heapless::Vec;
 
 use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES};
-use crate::geometry::{polygon, Point};
+use crate::geometry::{polygon, polyline, Point};
 use crate::{Error, FeatureId, Limit, SettingId};
 
 /// A composition: one fraction per material channel, summing to 1.
@@ -28,6 +28,36 @@ pub struct Feature {
     points: Vec<Point, MAX_VERTICES>,
     material: Material,
     bbox: (Point, Point),
+    /// Bounding boxes of runs of [`CHUNK`] edges, to skip far edges in distance queries.
+    chunks: Vec<(Point, Point), { MAX_VERTICES / CHUNK }>,
+}
+
+/// Edges per chunk of a feature's distance index.
+const CHUNK: usize = 16;
+
+/// The nearest boundary point of a feature to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Nearest {
+    /// The boundary point.
+    pub point: Point,
+    /// Distance to it, negative inside the polygon.
+    pub distance: f32,
+    /// The edge it lies on.
+    pub edge: usize,
+}
+
+impl Nearest {
+    /// Unit vector of steepest ascent of the signed distance (away from the feature outside,
+    /// towards its boundary inside).
+    pub fn gradient(&self, p: Point) -> Point {
+        let n = (p - self.point).normalized();
+        if self.distance < 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
 }
 
 impl Feature {
@@ -88,11 +118,23 @@ impl Feature {
         }
         check_material(id, &material)?;
         let bbox = polygon::bbox(&pts);
+        let mut chunks = Vec::new();
+        let n = pts.len();
+        for start in (0..n).step_by(CHUNK) {
+            let end = (start + CHUNK).min(n);
+            let mut b = polygon::bbox(&pts[start..end]);
+            let closing = pts[end % n];
+            b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
+            b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
+            // MAX_VERTICES / CHUNK chunks at most.
+            let _ = chunks.push(b);
+        }
         Ok(Feature {
             id,
             points: pts,
             material,
             bbox,
+            chunks,
         })
     }
 
@@ -112,14 +154,44 @@ impl Feature {
     pub fn bbox(&self) -> (Point, Point) {
         self.bbox
     }
+    /// The nearest boundary point to `p`; chunks of edges whose box is farther than the best
+    /// so far are skipped (nearest chunk first).
+    pub fn nearest(&self, p: Point) -> Nearest {
+        let n = self.points.len();
+        let mut bounds = [(0.0f32, 0usize); MAX_VERTICES / CHUNK];
+        for (c, b) in self.chunks.iter().enumerate() {
+            let d = polygon::bbox_distance(*b, p);
+            bounds[c] = (d * d, c);
+        }
+        let bounds = &mut bounds[..self.chunks.len()];
+        bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best = (self.points[0], f32::INFINITY, 0);
+        for &(lower, c) in bounds.iter() {
+            if lower >= best.1 {
+                break;
+            }
+            for k in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (q, _) =
+                    polyline::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
+                let d2 = (q - p).norm2();
+                if d2 < best.1 {
+                    best = (q, d2, k);
+                }
+            }
+        }
+        let d = libm::sqrtf(best.1);
+        let inside =
+            polygon::bbox_distance(self.bbox, p) == 0.0 && polygon::contains(&self.points, p);
+        Nearest {
+            point: best.0,
+            distance: if inside { -d } else { d },
+            edge: best.2,
+        }
+    }
+
     /// Distance from `p` to the boundary, negative inside the polygon.
     pub fn signed_distance(&self, p: Point) -> f32 {
-        let d = polygon::closest(&self.points, p).1;
-        if polygon::bbox_distance(self.bbox, p) == 0.0 && polygon::contains(&self.points, p) {
-            -d
-        } else {
-            d
-        }
+        self.nearest(p).distance
     }
 }
 

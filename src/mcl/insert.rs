@@ -196,7 +196,8 @@ fn trace_half(
     let mut start = q + normal * half;
     // Onto the keep-out curve where the hole is concave.
     for _ in 0..3 {
-        let (c, d, _) = polygon::closest(hole.pts, start);
+        let near = slice.holes()[i].nearest(start);
+        let (c, d) = (near.point, near.distance);
         if d >= half - 1e-5 {
             break;
         }

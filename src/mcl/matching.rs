@@ -209,8 +209,9 @@ fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point
     let mut hy = halves[y].clone();
     hx.reshape_end(pstar);
     hy.reshape_end(pstar);
-    if crosses_finished(halves, &hx.points, &[x, y])
-        || crosses_finished(halves, &hy.points, &[x, y])
+    let holes = [hx.hole, hy.hole];
+    if crosses_finished(halves, &hx.points, &[x, y], &holes)
+        || crosses_finished(halves, &hy.points, &[x, y], &holes)
     {
         return false;
     }
@@ -222,10 +223,19 @@ fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point
 }
 
 /// Whether `pts` crosses any finished, alive half other than those in `skip`.
-pub(crate) fn crosses_finished(halves: &[Half], pts: &[Point], skip: &[usize]) -> bool {
+///
+/// Only halves of the holes in `holes` are looked at: a half stays in its own cell, so it can
+/// only meet halves of its own hole or of the hole across the bisector it ends on.
+pub(crate) fn crosses_finished(
+    halves: &[Half],
+    pts: &[Point],
+    skip: &[usize],
+    holes: &[u8],
+) -> bool {
     let bb = polyline::bbox(pts);
     halves.iter().enumerate().any(|(k, h)| {
         h.alive
+            && holes.contains(&h.hole)
             && !skip.contains(&k)
             && (h.end == HalfEnd::Wall || h.partner.is_some())
             && polyline::boxes_overlap(bb, polyline::bbox(&h.points), 1e-4)

@@ -198,9 +198,10 @@ fn try_move(
         b
     });
     let skip = [e, partner.unwrap_or(e)];
-    if crosses_finished(halves, &a.points, &skip)
+    let holes = [a.hole, b.as_ref().map_or(a.hole, |b| b.hole)];
+    if crosses_finished(halves, &a.points, &skip, &holes)
         || b.as_ref()
-            .is_some_and(|b| crosses_finished(halves, &b.points, &skip))
+            .is_some_and(|b| crosses_finished(halves, &b.points, &skip, &holes))
     {
         return false;
     }

@@ -1,0 +1,69 @@
+//! Links with cortex-m-rt's `link.x` and the workspace's `memory.x` (thumb targets only), and
+//! turns the built-in slice (host-sim/data/four_holes.json) into Rust constants.
+
+use std::fmt::Write;
+use std::path::PathBuf;
+
+fn main() {
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("..");
+    std::fs::copy(root.join("memory.x"), out.join("memory.x")).unwrap();
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=../memory.x");
+    if std::env::var("TARGET").unwrap().starts_with("thumb") {
+        println!("cargo:rustc-link-arg=-Tlink.x");
+    }
+
+    let slice_path = root.join("host-sim/data/four_holes.json");
+    println!("cargo:rerun-if-changed={}", slice_path.display());
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&slice_path).unwrap()).unwrap();
+    let mut s = String::new();
+    let points = |f: &serde_json::Value| -> String {
+        let pts: Vec<String> = f["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                format!(
+                    "Point::new({:?}f32, {:?}f32)",
+                    p[0].as_f64().unwrap(),
+                    p[1].as_f64().unwrap()
+                )
+            })
+            .collect();
+        format!("&[{}]", pts.join(", "))
+    };
+    let material = |f: &serde_json::Value| -> String {
+        let m: Vec<String> = f["material"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| format!("{:?}f32", x.as_f64().unwrap()))
+            .collect();
+        format!("[{}]", m.join(", "))
+    };
+    let outer = &v["outer"];
+    writeln!(
+        s,
+        "pub const WALL: (&[Point], [f32; 4]) = ({}, {});",
+        points(outer),
+        material(outer)
+    )
+    .unwrap();
+    let holes: Vec<String> = v["holes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|h| format!("({}, {})", points(h), material(h)))
+        .collect();
+    writeln!(
+        s,
+        "pub const HOLES: &[(&[Point], [f32; 4])] = &[{}];",
+        holes.join(", ")
+    )
+    .unwrap();
+    let w = v["settings"]["road_width"].as_f64().unwrap();
+    writeln!(s, "pub const ROAD_WIDTH: f32 = {w:?}f32;").unwrap();
+    std::fs::write(out.join("slice_data.rs"), s).unwrap();
+}

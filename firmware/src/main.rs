@@ -1,0 +1,136 @@
+//! hollowpath on QEMU's mps2-an386: plans the built-in four-hole slice with the same core the
+//! host runs, checks the plan, and prints its digest and the instructions it took over
+//! semihosting, then exits QEMU with the verdict.
+//!
+//! The host test `host-sim/tests/mcu.rs` compares the digest with the host's: the plans must
+//! be bit-identical.
+#![no_std]
+#![no_main]
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m_rt::{entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
+use static_cell::ConstStaticCell;
+
+mod slice_data {
+    use hollowpath::geometry::Point;
+    include!(concat!(env!("OUT_DIR"), "/slice_data.rs"));
+}
+
+/// The planner's working memory, in .bss (its initial value is all zeros).
+static PLANNER: ConstStaticCell<Planner> = ConstStaticCell::new(Planner::new());
+
+/// SysTick wraps (each 2^24 ticks).
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+const RELOAD: u32 = 0x00FF_FFFF;
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// SysTick ticks since start (under `-icount shift=0`, about 40 instructions a tick).
+fn ticks() -> u64 {
+    loop {
+        let w1 = WRAPS.load(Ordering::Relaxed);
+        let v = cortex_m::peripheral::SYST::get_current();
+        // A wrap that happened but whose interrupt has not run yet.
+        let pending = cortex_m::peripheral::SCB::is_pendst_pending();
+        let w2 = WRAPS.load(Ordering::Relaxed);
+        if w1 == w2 {
+            let w = if pending && v > RELOAD / 2 {
+                w1 + 1
+            } else {
+                w1
+            };
+            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - v) as u64;
+        }
+    }
+}
+
+fn fail(what: &str, e: impl core::fmt::Debug) -> ! {
+    hprintln!("error {}: {:?}", what, e);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+fn built_in_slice() -> Slice {
+    let wall = Feature::new(FeatureId::Wall, slice_data::WALL.0, slice_data::WALL.1)
+        .unwrap_or_else(|e| fail("wall", e));
+    let mut holes: heapless_holes::Holes = heapless_holes::Holes::new();
+    for (i, (pts, m)) in slice_data::HOLES.iter().enumerate() {
+        let f = Feature::new(FeatureId::Hole(i as u8), pts, *m).unwrap_or_else(|e| fail("hole", e));
+        if holes.push(f).is_err() {
+            fail("holes", "too many");
+        }
+    }
+    Slice::new(
+        wall,
+        &holes,
+        Settings::for_road_width(slice_data::ROAD_WIDTH),
+    )
+    .unwrap_or_else(|e| fail("slice", e))
+}
+
+mod heapless_holes {
+    /// The hollow features of the built-in slice before validation.
+    pub type Holes =
+        hollowpath_heapless::Vec<hollowpath::Feature, { hollowpath::config::MAX_HOLES }>;
+    use hollowpath::heapless as hollowpath_heapless;
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| fail("peripherals", ()));
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    // The counter loads RELOAD on its first tick; count from there.
+    while cortex_m::peripheral::SYST::get_current() == 0 {}
+
+    let planner = PLANNER.take();
+    let t0 = ticks();
+    let slice = built_in_slice();
+    let t1 = ticks();
+    let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
+    let t2 = ticks();
+    let verdict = hollowpath::verify::verify(&slice, plan);
+    let t3 = ticks();
+    hprintln!(
+        "mcls {} bisectors {} branch_points {}",
+        plan.mcls.len(),
+        plan.bisectors().len(),
+        plan.cells.branch_points.len()
+    );
+    hprintln!("digest {:016x}", plan.digest());
+    hprintln!(
+        "ticks validate {} plan {} verify {}",
+        t1 - t0,
+        t2 - t1,
+        t3 - t2
+    );
+    match verdict {
+        Ok(()) => {
+            hprintln!("verify ok");
+            debug::exit(debug::EXIT_SUCCESS);
+        }
+        Err(v) => fail("verify", v),
+    }
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("panic: {}", info);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
