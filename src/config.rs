@@ -58,6 +58,9 @@ pub const TRACE_POINTS: usize = 1_024;
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 
+/// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
+pub const PATH_VERTICES: usize = 8_192;
+
 /// Default settings (see [`Settings`](crate::Settings)).
 pub mod defaults {
     /// Deposited road width, mm.

@@ -88,6 +88,9 @@ pub enum Limit {
     TracePoints,
     /// [`MAX_MCLS`](crate::config::MAX_MCLS)
     Mcls,
+    /// [`PATH_VERTICES`](crate::config::PATH_VERTICES): the capacity of the sink a layer is
+    /// written into.
+    PathVertices,
 }
 
 impl Limit {
@@ -106,6 +109,7 @@ impl Limit {
             Limit::Halves => MAX_HALVES,
             Limit::TracePoints => TRACE_POINTS,
             Limit::Mcls => MAX_MCLS,
+            Limit::PathVertices => PATH_VERTICES,
         }
     }
 
@@ -122,6 +126,7 @@ impl Limit {
             Limit::Halves => "traced MCL halves",
             Limit::TracePoints => "points in one traced MCL",
             Limit::Mcls => "material changing lines",
+            Limit::PathVertices => "vertices in one layer's path",
         }
     }
 }

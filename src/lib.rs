@@ -43,6 +43,9 @@
 #[cfg(test)]
 extern crate std;
 
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
 #[macro_use]
 mod fmt;
 
@@ -51,9 +54,11 @@ pub mod config;
 pub mod error;
 pub mod field;
 pub mod geometry;
+pub mod keep_out;
 pub mod mcl;
 pub mod plan;
 pub mod slice;
+pub mod toolpath;
 pub mod verify;
 
 pub use error::{Error, FeatureId, Limit, SettingId};

@@ -2,8 +2,11 @@
 
 mod common;
 
-use common::feature;
+use common::{check_layer, feature};
 use hollowpath::geometry::Point;
+use hollowpath::toolpath::spiral::{spiral, ControlFunction};
+use hollowpath::toolpath::zigzag::zigzag;
+use hollowpath::toolpath::Vertex;
 use hollowpath::verify::verify;
 use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
 use proptest::prelude::*;
@@ -120,5 +123,30 @@ proptest! {
         let digest = plan.digest();
         let again = planner.plan(&slice).unwrap().digest();
         prop_assert_eq!(digest, again);
+    }
+
+    #[test]
+    fn random_slices_give_valid_layers(
+        rx in 9.0f32..17.0,
+        ry in 9.0f32..17.0,
+        wall_wobble in 0.0f32..0.15,
+        holes in proptest::collection::vec(hole_spec(), 1..6),
+        road_width in 0.35f32..0.55,
+    ) {
+        let slice = random_slice(rx, ry, wall_wobble, &holes, road_width);
+        prop_assume!(slice.is_some());
+        let slice = slice.unwrap();
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(&slice).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+        let mut path: Box<heapless::Vec<Vertex, 32768>> = Box::default();
+        let stats = zigzag(&slice, plan, &mut *path).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+        check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("zigzag: {e}")))?;
+        prop_assert_eq!(common::starts(&path), stats.pieces as usize);
+        for f in [ControlFunction::Linear, ControlFunction::RoadWidth, ControlFunction::Ease] {
+            path.clear();
+            let s = spiral(&slice, plan, f, &mut *path).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+            check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("spiral {f:?}: {e}")))?;
+            prop_assert_eq!(common::starts(&path), 1 + s.jumps as usize);
+        }
     }
 }

@@ -4,7 +4,11 @@
 //! The command-line tool `hollowpath` (see `main.rs`) is a thin layer over this library, which
 //! the tests and benchmarks use directly.
 
+pub mod gcode;
+pub mod layers;
+pub mod metrics;
 pub mod output;
+pub mod preview;
 pub mod raster;
 pub mod render;
 pub mod slice_file;

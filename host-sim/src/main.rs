@@ -1,10 +1,14 @@
-//! `hollowpath`: plan and preview scaffold slices on the PC with the printer's own core.
+//! `hollowpath`: plan, preview and measure scaffold slices on the PC with the printer's own core.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
-use host_sim::{output, render, slice_file};
+use clap::{Parser, Subcommand, ValueEnum};
+use hollowpath::toolpath::composition::BlendedField;
+use hollowpath::toolpath::spiral::ControlFunction;
+use host_sim::layers::{self, Fill};
+use host_sim::metrics::{LayerMetrics, Meter, Options};
+use host_sim::{gcode, output, preview, render, slice_file};
 
 #[derive(Parser)]
 #[command(
@@ -17,17 +21,61 @@ struct Cli {
     command: Command,
 }
 
+/// Fill patterns on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+enum PatternArg {
+    /// Zigzag and spiral layers along the MCLs, alternating.
+    Mcl,
+    /// The Cartesian raster baseline, as ordinary slicers fill.
+    Raster,
+}
+
+/// Spiral control functions on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+enum SpiralArg {
+    /// u = v, the paper's.
+    Linear,
+    /// Turns a road width apart along every MCL.
+    RoadWidth,
+    /// Turns packed closer at the feature and at the cell boundary.
+    Ease,
+}
+
+impl From<SpiralArg> for ControlFunction {
+    fn from(s: SpiralArg) -> Self {
+        match s {
+            SpiralArg::Linear => ControlFunction::Linear,
+            SpiralArg::RoadWidth => ControlFunction::RoadWidth,
+            SpiralArg::Ease => ControlFunction::Ease,
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
-    /// Plan a slice file: writes DIR/mcls.json and DIR/mcls.svg.
+    /// Plan a slice file: DIR/mcls.json and mcls.svg, then per layer layer-K.svg and
+    /// layer-K.png, DIR/metrics.json and, with --gcode, G-code.
     Plan {
         /// The slice file (JSON, see SLICE_FORMAT.md).
         slice: PathBuf,
         /// Output directory.
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Number of layers (zigzag, spiral, zigzag, ...).
+        #[arg(long, default_value_t = 2)]
+        layers: usize,
+        /// What fills the layers.
+        #[arg(long, value_enum, default_value = "mcl")]
+        pattern: PatternArg,
+        /// The spiral control function u = f(v).
+        #[arg(long, value_enum, default_value = "road-width")]
+        spiral: SpiralArg,
+        /// Also write Marlin G-code here.
+        #[arg(long)]
+        gcode: Option<PathBuf>,
     },
-    /// Plan the built-in four-hole slice and write its MCL picture.
+    /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
+    /// G-code, and a metrics table against the raster baseline.
     Demo {
         /// Output directory.
         #[arg(long, default_value = "out/demo")]
@@ -38,12 +86,35 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Plan { slice, out } => slice_file::load(&slice)
+        Command::Plan {
+            slice,
+            out,
+            layers,
+            pattern,
+            spiral,
+            gcode,
+        } => slice_file::load(&slice)
             .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| run(&f, &out)),
+            .and_then(|f| {
+                let fill = match pattern {
+                    PatternArg::Mcl => Fill::Mcl(spiral.into()),
+                    PatternArg::Raster => Fill::Raster,
+                };
+                run(&f, &out, layers, fill, gcode.as_deref(), false)
+            }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
-            .and_then(|f| run(&f, &out)),
+            .and_then(|f| {
+                let g = out.join("demo.gcode");
+                run(
+                    &f,
+                    &out,
+                    2,
+                    Fill::Mcl(ControlFunction::RoadWidth),
+                    Some(&g),
+                    true,
+                )
+            }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -54,44 +125,133 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(file: &slice_file::SliceFile, out: &Path) -> Result<(), String> {
-    let planner = host_sim::plan(&file.slice).map_err(|e| format!("planning failed: {e}"))?;
-    let plan = planner_plan(&planner);
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-    let json = serde_json::to_string_pretty(&output::mcls_json(plan)).map_err(|e| e.to_string())?;
-    let write = |name: &str, text: &str| {
-        let p = out.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))
-    };
-    write("mcls.json", &json)?;
-    write("mcls.svg", &render::mcls_svg(&file.slice, plan))?;
-    let s = &plan.stats;
-    let pairs = plan.mcls.iter().filter(|m| m.second.is_some()).count();
-    println!(
-        "{}: {} MCLs ({} hole-to-hole through p*, {} to the wall), {} bisectors, {} branch points",
-        if file.name.is_empty() {
-            "slice"
-        } else {
-            &file.name
-        },
-        plan.mcls.len(),
-        pairs,
-        plan.mcls.len() - pairs,
-        plan.bisectors().len(),
-        plan.cells.branch_points.len()
-    );
-    println!(
-        "  field {} nodes at {:.3} mm, {} sweeps; {} traced, {} unmatched removed, {} relaxation moves, {} thinned; digest {:016x}",
-        s.grid_nodes, s.grid_h, s.sweeps, s.traced, s.removed_unmatched, s.relax_moves, s.thinned, plan.digest()
-    );
-    println!(
-        "  wrote {}/mcls.json and {}/mcls.svg",
-        out.display(),
-        out.display()
-    );
-    Ok(())
+fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-fn planner_plan(p: &hollowpath::Planner) -> &hollowpath::Plan {
-    p.last_plan()
+fn run(
+    file: &slice_file::SliceFile,
+    out: &Path,
+    count: usize,
+    fill: Fill,
+    gcode_path: Option<&Path>,
+    with_baseline: bool,
+) -> Result<(), String> {
+    let slice = &file.slice;
+    let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
+    let plan = planner.last_plan();
+    let built =
+        layers::layers(slice, plan, fill, count).map_err(|e| format!("layers failed: {e}"))?;
+    let baseline = if with_baseline {
+        Some(
+            layers::layer(slice, plan, Fill::Raster, 0)
+                .map_err(|e| format!("baseline failed: {e}"))?,
+        )
+    } else {
+        None
+    };
+
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let json = serde_json::to_string_pretty(&output::mcls_json(plan)).map_err(|e| e.to_string())?;
+    write(&out.join("mcls.json"), json.as_bytes())?;
+    write(
+        &out.join("mcls.svg"),
+        render::mcls_svg(slice, plan).as_bytes(),
+    )?;
+
+    let name = if file.name.is_empty() {
+        "slice"
+    } else {
+        &file.name
+    };
+    let pairs = plan.mcls.iter().filter(|m| m.second.is_some()).count();
+    println!(
+        "{name}: {} MCLs ({pairs} hole-to-hole through p*, {} to the wall), {} bisectors, {} branch points; digest {:016x}",
+        plan.mcls.len(),
+        plan.mcls.len() - pairs,
+        plan.bisectors().len(),
+        plan.cells.branch_points.len(),
+        plan.digest()
+    );
+
+    let field = BlendedField::new(slice, plan);
+    let field_fn = |p| field.at(p);
+    let mut meter = Meter::new(slice, Options::default());
+    let mut measured: Vec<(String, LayerMetrics)> = Vec::new();
+    for l in built.iter().chain(baseline.iter()) {
+        let m = meter.measure(l.pattern, &l.path, &field_fn);
+        measured.push((l.note.clone(), m));
+    }
+    for l in &built {
+        write(
+            &out.join(format!("layer-{}.svg", l.index)),
+            preview::layer_svg(slice, &l.path).as_bytes(),
+        )?;
+        write(
+            &out.join(format!("layer-{}.png", l.index)),
+            &preview::layer_png(slice, &l.path, 20.0),
+        )?;
+    }
+    if let Some(b) = &baseline {
+        write(
+            &out.join("baseline.svg"),
+            preview::layer_svg(slice, &b.path).as_bytes(),
+        )?;
+        write(
+            &out.join("baseline.png"),
+            &preview::layer_png(slice, &b.path, 20.0),
+        )?;
+    }
+    let layer_json: Vec<&LayerMetrics> =
+        measured.iter().take(built.len()).map(|(_, m)| m).collect();
+    let mut doc = serde_json::json!({ "slice": name, "layers": layer_json });
+    if baseline.is_some() {
+        doc["baseline"] =
+            serde_json::to_value(&measured.last().unwrap().1).map_err(|e| e.to_string())?;
+    }
+    write(
+        &out.join("metrics.json"),
+        serde_json::to_string_pretty(&doc)
+            .map_err(|e| e.to_string())?
+            .as_bytes(),
+    )?;
+    if let Some(g) = gcode_path {
+        let layers: Vec<_> = built.iter().map(|l| (l.pattern, l.path.clone())).collect();
+        write(g, gcode::export(slice, &layers, 10.0, 40.0).as_bytes())?;
+    }
+
+    println!(
+        "{:<8} {:>6} {:>10} {:>11} {:>9} {:>9} {:>7} {:>12}",
+        "pattern",
+        "starts",
+        "travel mm",
+        "extruded mm",
+        "coverage",
+        "overfill",
+        "spill",
+        "composition"
+    );
+    for (i, (note, m)) in measured.iter().enumerate() {
+        let label = if i >= built.len() { "baseline" } else { "" };
+        println!(
+            "{:<8} {:>6} {:>10.1} {:>11.1} {:>9.3} {:>9.3} {:>7.4} {:>12.4}   {label}{}{note}",
+            m.pattern,
+            m.starts,
+            m.travel_mm,
+            m.extruded_mm,
+            m.coverage,
+            m.overfill,
+            m.spill,
+            m.composition_error,
+            if label.is_empty() { "" } else { ": " }
+        );
+    }
+    println!(
+        "wrote {}/mcls.json, mcls.svg, layer-K.svg/png, metrics.json{}",
+        out.display(),
+        gcode_path
+            .map(|g| format!(", {}", g.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
 }

@@ -1,10 +1,62 @@
 //! A fine raster of a slice onto which roads are deposited, to measure what they cover.
+//!
+//! Cell `(i, j)` is the point `origin + (i, j) * cell` (a cell is its centre). The grid spans the
+//! wall's bounding box grown by one road width on every side, so a road that slips just past the
+//! wall still lands on it; cells a road covers beyond the grid are all outside the wall and are
+//! kept, deduplicated, in a small set ([`Raster::outside_cells`]).
+//!
+//! Every cell is classified once, when the raster is built, as [`Region::Printable`] (the
+//! printable region: inside the wall and outside every hole by half a road width),
+//! [`Region::Margin`] (still material, but within half a road width of a feature) or
+//! [`Region::Void`] (inside a hollow feature or outside the wall). The signed distances are
+//! 1-Lipschitz, so a block of cells whose centre is farther from every class boundary than the
+//! block's radius takes the centre's class without looking at each cell.
+
+use std::collections::HashSet;
 
 use hollowpath::geometry::Point;
 use hollowpath::Slice;
 
-/// A raster over the wall's bounding box: which cells are printable, and how many strokes
-/// cover each.
+/// What a raster cell is part of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// Inside the wall and outside every hole by at least half a road width.
+    Printable,
+    /// Inside the wall and outside every hole, but nearer than half a road width to one.
+    Margin,
+    /// Inside a hollow feature or outside the wall: no material belongs here.
+    Void,
+}
+
+impl Region {
+    /// Whether material belongs here (printable or margin).
+    pub fn is_material(self) -> bool {
+        self != Region::Void
+    }
+}
+
+/// A grid cell a segment's capsule covers (see [`Raster::stamp_segment`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Index of the cell, `j * nx + i`.
+    pub k: usize,
+    /// Column.
+    pub i: usize,
+    /// Row.
+    pub j: usize,
+    /// The cell's region.
+    pub region: Region,
+    /// Parameter in [0, 1] of the segment point closest to the cell centre.
+    pub t: f32,
+    /// Squared distance from the cell centre to the segment, mm^2.
+    pub d2: f32,
+}
+
+/// Cells per side of a classification block.
+const BLOCK: usize = 8;
+
+/// A raster over the wall's bounding box: the region of each cell, and how many strokes cover
+/// each.
 pub struct Raster {
     /// Centre of cell (0, 0).
     pub origin: Point,
@@ -14,38 +66,107 @@ pub struct Raster {
     pub nx: usize,
     /// Cells along y.
     pub ny: usize,
-    /// Whether the cell centre is in the printable region.
+    /// Whether the cell centre is in the printable region (`region[k] == Region::Printable`).
     pub printable: Vec<bool>,
+    /// The region of each cell centre.
+    pub region: Vec<Region>,
     /// How many strokes cover the cell centre.
     pub count: Vec<u16>,
-    last_stroke: Vec<u32>,
-    stroke: u32,
+    /// Cells beyond the grid that some stroke covered (all outside the wall).
+    outside: HashSet<(i64, i64)>,
+    /// Sequence number of the last segment that covered each cell (0: none).
+    last_segment: Vec<u32>,
+    /// Sequence number of the last segment stamped.
+    segment: u32,
+    /// Sequence number of the current stroke's first segment.
+    stroke_start: u32,
+    revisit: Revisit,
+}
+
+/// How a stroke that comes back over a cell counts there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Revisit {
+    /// Once per stroke, however the stroke folds over itself.
+    Once,
+    /// Again whenever the stroke had left the cell: only where consecutive segments cover it
+    /// (a joint, a stroke passing along) does it count once.
+    Again,
+}
+
+/// The class of a point from its wall clearance `c` and nearest-hole distance `h`.
+fn classify(c: f32, h: f32, half: f32) -> Region {
+    if c >= half && h >= half {
+        Region::Printable
+    } else if c >= 0.0 && h >= 0.0 {
+        Region::Margin
+    } else {
+        Region::Void
+    }
 }
 
 impl Raster {
     /// The raster of `slice` with cells of `cell` mm.
     pub fn new(slice: &Slice, cell: f32) -> Raster {
+        assert!(cell > 0.0, "raster cell size must be positive");
+        let half = slice.settings().road_width * 0.5;
+        let margin = 2.0 * half;
         let (lo, hi) = slice.wall().bbox();
-        let nx = ((hi.x - lo.x) / cell).ceil() as usize + 1;
-        let ny = ((hi.y - lo.y) / cell).ceil() as usize + 1;
-        let origin = lo;
-        let mut printable = vec![false; nx * ny];
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = Point::new(origin.x + i as f32 * cell, origin.y + j as f32 * cell);
-                printable[j * nx + i] = slice.is_printable(p, 0.0);
+        let nx = ((hi.x - lo.x + 2.0 * margin) / cell).ceil() as usize + 1;
+        let ny = ((hi.y - lo.y + 2.0 * margin) / cell).ceil() as usize + 1;
+        let origin = Point::new(lo.x - margin, lo.y - margin);
+        let distances = |p: Point| (slice.wall_clearance(p), slice.nearest_holes(p).1);
+        let mut region = vec![Region::Void; nx * ny];
+        // Half the diagonal of a block's cell centres: every centre is this close to the
+        // block's middle.
+        let radius = core::f32::consts::SQRT_2 * 0.5 * (BLOCK - 1) as f32 * cell;
+        for bj in (0..ny).step_by(BLOCK) {
+            for bi in (0..nx).step_by(BLOCK) {
+                let (i1, j1) = ((bi + BLOCK).min(nx), (bj + BLOCK).min(ny));
+                let mid = Point::new(
+                    origin.x + (bi + BLOCK / 2) as f32 * cell - 0.5 * cell,
+                    origin.y + (bj + BLOCK / 2) as f32 * cell - 0.5 * cell,
+                );
+                let (c, h) = distances(mid);
+                let clear = |d: f32| (d - half).abs() > radius && d.abs() > radius;
+                if clear(c) && clear(h) {
+                    let r = classify(c, h, half);
+                    for j in bj..j1 {
+                        region[j * nx + bi..j * nx + i1].fill(r);
+                    }
+                    continue;
+                }
+                for j in bj..j1 {
+                    for i in bi..i1 {
+                        let p = Point::new(origin.x + i as f32 * cell, origin.y + j as f32 * cell);
+                        let (c, h) = distances(p);
+                        region[j * nx + i] = classify(c, h, half);
+                    }
+                }
             }
         }
+        let printable = region.iter().map(|&r| r == Region::Printable).collect();
         Raster {
             origin,
             cell,
             nx,
             ny,
             printable,
+            region,
             count: vec![0; nx * ny],
-            last_stroke: vec![u32::MAX; nx * ny],
-            stroke: 0,
+            outside: HashSet::new(),
+            last_segment: vec![0; nx * ny],
+            segment: 0,
+            stroke_start: 1,
+            revisit: Revisit::Once,
         }
+    }
+
+    /// The centre of cell `(i, j)`.
+    pub fn centre(&self, i: usize, j: usize) -> Point {
+        Point::new(
+            self.origin.x + i as f32 * self.cell,
+            self.origin.y + j as f32 * self.cell,
+        )
     }
 
     /// Number of printable cells.
@@ -53,36 +174,116 @@ impl Raster {
         self.printable.iter().filter(|&&p| p).count()
     }
 
+    /// Cells beyond the grid covered by some stroke (all outside the wall).
+    pub fn outside_cells(&self) -> usize {
+        self.outside.len()
+    }
+
+    /// Forgets every stroke.
+    pub fn clear(&mut self) {
+        self.count.fill(0);
+        self.last_segment.fill(0);
+        self.outside.clear();
+        self.segment = 0;
+        self.stroke_start = 1;
+    }
+
+    /// Starts a new stroke, a continuous road: the segments stamped until the next call are
+    /// its consecutive pieces, and `revisit` says how it counts where it comes back over
+    /// itself.
+    pub fn begin_stroke(&mut self, revisit: Revisit) {
+        // Skip a number, so the new stroke's first segment never follows the last one's.
+        if self.segment >= u32::MAX - 2 {
+            self.last_segment.fill(0);
+            self.segment = 0;
+        }
+        self.segment += 1;
+        self.stroke_start = self.segment + 1;
+        self.revisit = revisit;
+    }
+
+    /// Deposits the capsule of radius `radius` around segment `ab`, the next piece of the
+    /// current stroke: every grid cell whose centre is within `radius` of the segment counts
+    /// once more, unless the stroke already covered it ([`Revisit::Once`]) or its previous
+    /// segment did ([`Revisit::Again`]). `visit` is called for every such grid cell (counted
+    /// or not; see [`Hit`]). Cells beyond the grid are recorded in the outside set.
+    pub fn stamp_segment(&mut self, a: Point, b: Point, radius: f32, mut visit: impl FnMut(Hit)) {
+        if radius.is_nan() || radius <= 0.0 || !a.is_finite() || !b.is_finite() {
+            return;
+        }
+        if self.segment >= u32::MAX - 1 {
+            self.begin_stroke(self.revisit);
+        }
+        self.segment += 1;
+        let seg = self.segment;
+        let (revisit, stroke_start) = (self.revisit, self.stroke_start);
+        let cell = self.cell;
+        let (ox, oy) = (self.origin.x, self.origin.y);
+        let ab = b - a;
+        let l2 = ab.norm2();
+        let r2 = radius * radius;
+        let ylo = a.y.min(b.y) - radius;
+        let yhi = a.y.max(b.y) + radius;
+        let j0 = ((ylo - oy) / cell).floor() as i64;
+        let j1 = ((yhi - oy) / cell).ceil() as i64;
+        for j in j0..=j1 {
+            let y = oy + j as f32 * cell;
+            let Some((xl, xr)) = capsule_row(a, b, radius, y) else {
+                continue;
+            };
+            // One cell of slack each side; the exact test below decides.
+            let i0 = ((xl - ox) / cell).floor() as i64 - 1;
+            let i1 = ((xr - ox) / cell).ceil() as i64 + 1;
+            let row_on_grid = j >= 0 && (j as usize) < self.ny;
+            for i in i0..=i1 {
+                let p = Point::new(ox + i as f32 * cell, y);
+                let t = if l2 > 0.0 {
+                    ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let d2 = (a + ab * t - p).norm2();
+                if d2 > r2 {
+                    continue;
+                }
+                if row_on_grid && i >= 0 && (i as usize) < self.nx {
+                    let (iu, ju) = (i as usize, j as usize);
+                    let k = ju * self.nx + iu;
+                    let last = self.last_segment[k];
+                    if last != seg {
+                        let again = match revisit {
+                            Revisit::Once => last < stroke_start,
+                            Revisit::Again => last + 1 < seg,
+                        };
+                        if again {
+                            self.count[k] = self.count[k].saturating_add(1);
+                        }
+                        self.last_segment[k] = seg;
+                    }
+                    visit(Hit {
+                        k,
+                        i: iu,
+                        j: ju,
+                        region: self.region[k],
+                        t,
+                        d2,
+                    });
+                } else {
+                    self.outside.insert((i, j));
+                }
+            }
+        }
+    }
+
     /// Deposits one stroke: every cell whose centre is within `radius` of the polyline counts
     /// once more (once per stroke, however the polyline folds).
     pub fn stamp_polyline(&mut self, pts: &[Point], radius: f32) {
-        let stroke = self.stroke;
-        self.stroke += 1;
+        self.begin_stroke(Revisit::Once);
+        if pts.len() == 1 {
+            self.stamp_segment(pts[0], pts[0], radius, |_| {});
+        }
         for w in pts.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            let lo = Point::new(a.x.min(b.x) - radius, a.y.min(b.y) - radius);
-            let hi = Point::new(a.x.max(b.x) + radius, a.y.max(b.y) + radius);
-            let i0 = (((lo.x - self.origin.x) / self.cell).floor().max(0.0)) as usize;
-            let j0 = (((lo.y - self.origin.y) / self.cell).floor().max(0.0)) as usize;
-            let i1 = (((hi.x - self.origin.x) / self.cell).ceil() as usize).min(self.nx - 1);
-            let j1 = (((hi.y - self.origin.y) / self.cell).ceil() as usize).min(self.ny - 1);
-            for j in j0..=j1 {
-                for i in i0..=i1 {
-                    let k = j * self.nx + i;
-                    if self.last_stroke[k] == stroke {
-                        continue;
-                    }
-                    let p = Point::new(
-                        self.origin.x + i as f32 * self.cell,
-                        self.origin.y + j as f32 * self.cell,
-                    );
-                    let (c, _) = hollowpath::geometry::polyline::closest_on_segment(a, b, p);
-                    if c.dist(p) <= radius {
-                        self.last_stroke[k] = stroke;
-                        self.count[k] = self.count[k].saturating_add(1);
-                    }
-                }
-            }
+            self.stamp_segment(w[0], w[1], radius, |_| {});
         }
     }
 
@@ -97,4 +298,44 @@ impl Raster {
             .count();
         bare as f64 / total.max(1) as f64
     }
+}
+
+/// The x-interval where the horizontal line at `y` meets the capsule of radius `r` around
+/// segment `ab`, if it does. The capsule is the union of the discs at both ends and the
+/// rectangle between them, and it is convex, so its section is the hull of theirs.
+fn capsule_row(a: Point, b: Point, r: f32, y: f32) -> Option<(f32, f32)> {
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    let mut disc = |c: Point| {
+        let dy = y - c.y;
+        let s = r * r - dy * dy;
+        if s >= 0.0 {
+            let h = s.sqrt();
+            lo = lo.min(c.x - h);
+            hi = hi.max(c.x + h);
+        }
+    };
+    disc(a);
+    disc(b);
+    let d = b - a;
+    let len = d.norm();
+    if len > 0.0 {
+        let n = Point::new(-d.y / len, d.x / len) * r;
+        let q = [a + n, b + n, b - n, a - n];
+        for k in 0..4 {
+            let (p0, p1) = (q[k], q[(k + 1) % 4]);
+            if (p0.y - y) * (p1.y - y) > 0.0 {
+                continue;
+            }
+            if p0.y == p1.y {
+                lo = lo.min(p0.x.min(p1.x));
+                hi = hi.max(p0.x.max(p1.x));
+            } else {
+                let x = p0.x + (y - p0.y) / (p1.y - p0.y) * (p1.x - p0.x);
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }

@@ -64,6 +64,72 @@ fn plan_writes_mcls_json_and_svg() {
 }
 
 #[test]
+fn plan_with_layers_writes_previews_metrics_and_gcode() {
+    let out = tmp("layers");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/vessel_ring.json");
+    let g = out.join("print.gcode");
+    let st = hollowpath()
+        .args([
+            "plan", slice, "--layers", "3", "--spiral", "linear", "--out",
+        ])
+        .arg(&out)
+        .arg("--gcode")
+        .arg(&g)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    for k in 0..3 {
+        assert!(out.join(format!("layer-{k}.svg")).is_file());
+        let png = std::fs::read(out.join(format!("layer-{k}.png"))).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let layers = doc["layers"].as_array().unwrap();
+    let patterns: Vec<&str> = layers
+        .iter()
+        .map(|l| l["pattern"].as_str().unwrap())
+        .collect();
+    assert_eq!(patterns, ["zigzag", "spiral", "zigzag"]);
+    for l in layers {
+        for key in [
+            "starts",
+            "travel_mm",
+            "extruded_mm",
+            "coverage",
+            "overfill",
+            "spill",
+            "composition_error",
+        ] {
+            assert!(l[key].is_number(), "{key} missing in {l}");
+        }
+        assert_eq!(l["starts"], 1);
+    }
+    let text = std::fs::read_to_string(&g).unwrap();
+    assert!(text.contains("; filament_diameter = 1.75") && text.contains("; road_width = 0.4"));
+    assert_eq!(host_sim::gcode::parse(&text).unwrap().len(), 3);
+    // The raster baseline through the same command.
+    let out2 = tmp("raster");
+    let st = hollowpath()
+        .args(["plan", slice, "--pattern", "raster", "--out"])
+        .arg(&out2)
+        .output()
+        .unwrap();
+    assert!(st.status.success());
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out2.join("metrics.json")).unwrap()).unwrap();
+    assert!(doc["layers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|l| l["pattern"] == "raster"));
+}
+
+#[test]
 fn demo_runs_on_the_built_in_slice() {
     let out = tmp("demo");
     let st = hollowpath()
@@ -78,6 +144,17 @@ fn demo_runs_on_the_built_in_slice() {
     );
     assert!(String::from_utf8_lossy(&st.stdout).contains("four_holes"));
     assert!(out.join("mcls.svg").is_file() && out.join("mcls.json").is_file());
+    let stdout = String::from_utf8_lossy(&st.stdout);
+    for pattern in ["zigzag", "spiral", "raster"] {
+        assert!(
+            stdout.lines().any(|l| l.starts_with(pattern)),
+            "no {pattern} row in\n{stdout}"
+        );
+    }
+    assert!(out.join("demo.gcode").is_file() && out.join("layer-1.png").is_file());
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(doc["baseline"]["pattern"], "raster");
 }
 
 #[test]

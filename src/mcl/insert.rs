@@ -10,9 +10,10 @@
 use heapless::Vec;
 
 use crate::cells::{away_from_hole, bisect};
-use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, MAX_VERTICES, TRACE_POINTS};
+use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, TRACE_POINTS};
 use crate::field::Field;
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polyline, Point};
+use crate::keep_out::{KeepOut, Side};
 use crate::mcl::{Half, HalfEnd};
 use crate::plan::PlanStats;
 use crate::{Error, FeatureId, Limit, Slice};
@@ -32,13 +33,14 @@ pub fn insert(
     let settings = slice.settings();
     let w = settings.road_width;
     for i in 0..slice.holes().len() {
-        let hole = Hole::new(slice, i);
-        let n0 = libm::ceilf(hole.length / settings.mcl_spacing).max(3.0) as usize;
-        let ds = hole.length / n0 as f32;
+        let hole = KeepOut::new(&slice.holes()[i], 0.5 * w, Side::Outside);
+        let n0 = libm::ceilf(hole.length() / settings.mcl_spacing).max(3.0) as usize;
+        let ds = hole.length() / n0 as f32;
         for k in 0..n0 {
             trace_half(
                 slice,
                 field,
+                i,
                 &hole,
                 k as f32 * ds,
                 0,
@@ -59,12 +61,21 @@ pub fn insert(
                 let (sb, eb) = (halves[next].s, halves[next].end_point());
                 let mut gap_s = sb - sa;
                 if gap_s <= 0.0 {
-                    gap_s += hole.length;
+                    gap_s += hole.length();
                 }
                 if ea.dist(eb) > MAX_END_GAP_PER_ROAD * w && gap_s > 1e-3 {
-                    let s = (sa + 0.5 * gap_s) % hole.length;
-                    added |=
-                        trace_half(slice, field, &hole, s, depth as u8, halves, scratch, stats)?;
+                    let s = (sa + 0.5 * gap_s) % hole.length();
+                    added |= trace_half(
+                        slice,
+                        field,
+                        i,
+                        &hole,
+                        s,
+                        depth as u8,
+                        halves,
+                        scratch,
+                        stats,
+                    )?;
                 }
             }
             if !added {
@@ -94,7 +105,7 @@ pub fn insert(
 }
 
 /// Indices of the halves of hole `i`, sorted by their start parameter.
-pub(crate) fn sorted_halves(halves: &[Half], i: usize) -> Vec<u16, MAX_HALVES> {
+pub fn sorted_halves(halves: &[Half], i: usize) -> Vec<u16, MAX_HALVES> {
     let mut order: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         if h.hole as usize == i && h.alive {
@@ -124,85 +135,21 @@ pub(crate) fn sorted_all(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
     order
 }
 
-/// A hole's boundary with smoothly interpolated outward normals.
-struct Hole<'a> {
-    index: usize,
-    pts: &'a [Point],
-    normals: [Point; MAX_VERTICES],
-    length: f32,
-}
-
-impl<'a> Hole<'a> {
-    fn new(slice: &'a Slice, index: usize) -> Hole<'a> {
-        let pts = slice.holes()[index].points();
-        let n = pts.len();
-        let mut normals = [Point::default(); MAX_VERTICES];
-        // Counter-clockwise: the outward normal of edge a->b is (dy, -dx).
-        let edge_normal = |k: usize| {
-            let d = pts[(k + 1) % n] - pts[k];
-            Point::new(d.y, -d.x).normalized()
-        };
-        for (k, nk) in normals.iter_mut().take(n).enumerate() {
-            *nk = (edge_normal((k + n - 1) % n) + edge_normal(k)).normalized();
-        }
-        Hole {
-            index,
-            pts,
-            normals,
-            length: polygon::perimeter(pts),
-        }
-    }
-
-    /// Point and interpolated outward normal at arc length `s`.
-    fn at(&self, s: f32) -> (Point, Point) {
-        let n = self.pts.len();
-        let mut acc = 0.0;
-        for k in 0..n {
-            let (a, b) = (self.pts[k], self.pts[(k + 1) % n]);
-            let l = a.dist(b);
-            if acc + l > s || k == n - 1 {
-                let t = if l > 0.0 {
-                    ((s - acc) / l).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let nrm = self.normals[k]
-                    .lerp(self.normals[(k + 1) % n], t)
-                    .normalized();
-                return (a.lerp(b, t), nrm);
-            }
-            acc += l;
-        }
-        (self.pts[0], self.normals[0])
-    }
-}
-
 /// Traces one half from arc length `s` of `hole`; returns whether a half was added.
 #[allow(clippy::too_many_arguments)]
 fn trace_half(
     slice: &Slice,
     field: &Field,
-    hole: &Hole<'_>,
+    i: usize,
+    hole: &KeepOut<'_>,
     s: f32,
     depth: u8,
     halves: &mut Vec<Half, MAX_HALVES>,
     scratch: &mut Vec<Point, TRACE_POINTS>,
     stats: &mut PlanStats,
 ) -> Result<bool, Error> {
-    let w = slice.settings().road_width;
-    let half = 0.5 * w;
-    let i = hole.index;
-    let (q, normal) = hole.at(s);
-    let mut start = q + normal * half;
-    // Onto the keep-out curve where the hole is concave.
-    for _ in 0..3 {
-        let near = slice.holes()[i].nearest(start);
-        let (c, d) = (near.point, near.distance);
-        if d >= half - 1e-5 {
-            break;
-        }
-        start = c + (start - c).normalized() * half;
-    }
+    let (_, normal) = hole.base(s);
+    let start = hole.at(s);
     if !slice.is_printable(start, 1e-4) || slice.nearest_holes(start).0 != i {
         stats.failed_traces += 1;
         return Ok(false);

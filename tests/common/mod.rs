@@ -34,3 +34,66 @@ pub fn two_circles(settings: Settings) -> Slice {
     );
     Slice::new(wall, &[h0, h1], settings).unwrap()
 }
+
+use hollowpath::toolpath::Vertex;
+
+/// Extrusion starts of a path: depositing moves that follow a travel move (or the start).
+pub fn starts(path: &[Vertex]) -> usize {
+    (1..path.len())
+        .filter(|&i| path[i].deposit && (i == 1 || !path[i - 1].deposit))
+        .count()
+}
+
+/// Checks what every layer must satisfy; returns the first failure.
+pub fn check_layer(slice: &Slice, path: &[Vertex]) -> Result<(), String> {
+    let w = slice.settings().road_width;
+    let half = 0.5 * w;
+    if path.is_empty() {
+        return Err("empty layer".into());
+    }
+    if path[0].deposit {
+        return Err("the first vertex is reached by depositing".into());
+    }
+    for (i, v) in path.iter().enumerate() {
+        if !v.at.is_finite() {
+            return Err(format!("vertex {i} not finite"));
+        }
+        let sum: f32 = v.material.iter().sum();
+        if v.material
+            .iter()
+            .any(|&x| !(-1e-6..=1.0 + 1e-6).contains(&x))
+            || (sum - 1.0).abs() > 1e-4
+        {
+            return Err(format!("vertex {i}: composition {:?}", v.material));
+        }
+        // On a feature's keep-out curve the composition is the feature's material (to 1 %: a
+        // spiral turn that grazes the curve carries the blend of where it is, a hair away).
+        for (k, h) in slice.holes().iter().enumerate() {
+            let off = v
+                .material
+                .iter()
+                .zip(h.material())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f32::max);
+            if (h.signed_distance(v.at) - half).abs() < 1e-4 && off > 1e-2 {
+                return Err(format!(
+                    "vertex {i} on hole {k}: {:?} is not {:?}",
+                    v.material,
+                    h.material()
+                ));
+            }
+        }
+        if i > 0 && v.deposit {
+            // Every road stays in the printable region: nothing inside a feature or the wall.
+            let a = path[i - 1].at;
+            let n = (a.dist(v.at) / (0.25 * half)).ceil().max(1.0) as usize;
+            for t in 0..=n {
+                let p = a.lerp(v.at, t as f32 / n as f32);
+                if !slice.is_printable(p, 2e-3) {
+                    return Err(format!("road {i} leaves the printable region at {p:?}"));
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,73 @@
+//! The layers of a print: zigzag and spiral alternating along the MCLs (or the raster
+//! baseline), each a path of vertices from the core's generators.
+
+use hollowpath::toolpath::spiral::{spiral, ControlFunction};
+use hollowpath::toolpath::zigzag::zigzag;
+use hollowpath::toolpath::{raster::raster, Pattern, Vertex};
+use hollowpath::{Error, Plan, Slice};
+
+/// What fills the layers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fill {
+    /// Zigzag on even layers, spiral (with this control function) on odd ones.
+    Mcl(ControlFunction),
+    /// The Cartesian raster baseline on every layer (45 and 135 degrees alternating).
+    Raster,
+}
+
+/// One layer: its index (0 first), pattern, path and a line about how it was built.
+#[derive(Clone, Debug)]
+pub struct Layer {
+    /// Index from the bed up.
+    pub index: usize,
+    /// Its pattern.
+    pub pattern: Pattern,
+    /// The path.
+    pub path: Vec<Vertex>,
+    /// How the generator fared (pieces, jumps, turns).
+    pub note: String,
+}
+
+/// Builds layer `index` of `fill`.
+pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Layer, Error> {
+    let mut path = Vec::new();
+    let (pattern, note) = match fill {
+        Fill::Raster => {
+            raster(slice, plan, index, &mut path)?;
+            (Pattern::Raster, String::from("raster baseline"))
+        }
+        Fill::Mcl(_) if index % 2 == 0 => {
+            let s = zigzag(slice, plan, &mut path)?;
+            (
+                Pattern::Zigzag,
+                format!(
+                    "zigzag: {} piece(s) after splicing {} loops, {} MCLs left out for parity",
+                    s.pieces, s.splices, s.dropped
+                ),
+            )
+        }
+        Fill::Mcl(f) => {
+            let s = spiral(slice, plan, f, &mut path)?;
+            (
+                Pattern::Spiral,
+                format!(
+                    "spiral ({}): {} jump(s), {} turns in the first cell",
+                    f.name(),
+                    s.jumps,
+                    s.turns
+                ),
+            )
+        }
+    };
+    Ok(Layer {
+        index,
+        pattern,
+        path,
+        note,
+    })
+}
+
+/// Builds `count` layers of `fill`.
+pub fn layers(slice: &Slice, plan: &Plan, fill: Fill, count: usize) -> Result<Vec<Layer>, Error> {
+    (0..count).map(|k| layer(slice, plan, fill, k)).collect()
+}

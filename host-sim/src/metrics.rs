@@ -1,0 +1,313 @@
+//! Measuring a toolpath layer (`DESIGN.md`, "Measuring a toolpath").
+//!
+//! Every depositing move is a road of the road width: the capsule of radius `w / 2` around the
+//! move. Roads are deposited onto a [`Raster`] of the slice (0.025 mm cells by default) and the
+//! layer is scored by what they cover:
+//!
+//! - `starts`: extrusion starts (a travel move followed by a depositing move; the first vertex
+//!   of a layer is reached by travel, so a path that deposits at once starts there);
+//! - `travel_mm` / `extruded_mm`: lengths of the travel and depositing moves;
+//! - `coverage`: share of the printable region's cells covered at least once;
+//! - `overfill`: cells of the material region (inside the wall, outside the holes) covered two
+//!   or more times, over the printable region's cell count. Within one continuous road (a
+//!   maximal run of depositing moves), a cell that consecutive moves cover counts once, so the
+//!   road's own joints are not overfill; a road that leaves a cell and comes back over it (a
+//!   zigzag's legs laid too close, a spiral's rings overlapping) counts there again, as two
+//!   roads would ([`Options::revisit`]; [`Revisit::Once`] counts each cell once per road
+//!   instead, which makes a single-start layer's overfill zero by construction);
+//! - `spill`: cells inside a hollow feature or outside the wall covered at least once, over the
+//!   printable region's cell count;
+//! - `composition_error`: the mean, over deposited printable cells, of half the L1 distance
+//!   between the deposited composition and the blended field at the cell centre. A cell's
+//!   deposited composition is that of the nearest road: the composition blended linearly along
+//!   the move, at the point of the move closest to the cell. The field is sampled on every
+//!   [`Options::composition_stride`]-th cell in each direction (0.1 mm by default), because a
+//!   blended field is costly to evaluate; cells where it is `None` are skipped;
+//! - `feature_composition_error`: the largest half-L1 deviation between the material of a
+//!   deposited vertex lying on a feature's keep-out curve (half a road width from the feature,
+//!   within [`Options::keep_out_tol`]) and that feature's material.
+
+use std::ops::Range;
+
+use hollowpath::config::CHANNELS;
+use hollowpath::geometry::{polygon, Point};
+use hollowpath::toolpath::composition::blend;
+use hollowpath::toolpath::{Pattern, Vertex};
+use hollowpath::{Material, Slice};
+use serde::Serialize;
+
+pub use crate::raster::Revisit;
+use crate::raster::{Hit, Raster, Region};
+
+/// The raster cell size of [`measure`], mm.
+pub const CELL_MM: f32 = 0.025;
+/// Cells between composition samples, in each direction, for [`measure`].
+pub const COMPOSITION_STRIDE: usize = 4;
+/// How near half a road width from a feature a vertex must be to lie on its keep-out curve, mm.
+pub const KEEP_OUT_TOL: f32 = 1e-3;
+
+/// How finely to measure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// Raster cell size, mm.
+    pub cell: f32,
+    /// The composition error samples every `composition_stride`-th cell in x and in y (1: all).
+    pub composition_stride: usize,
+    /// Tolerance of "on a feature's keep-out curve", mm.
+    pub keep_out_tol: f32,
+    /// How a road that comes back over a cell it had left counts there (default
+    /// [`Revisit::Again`]: as overfill).
+    pub revisit: Revisit,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            cell: CELL_MM,
+            composition_stride: COMPOSITION_STRIDE,
+            keep_out_tol: KEEP_OUT_TOL,
+            revisit: Revisit::Again,
+        }
+    }
+}
+
+impl Options {
+    /// The default options with cells of `cell` mm.
+    pub fn with_cell(cell: f32) -> Options {
+        Options {
+            cell,
+            ..Options::default()
+        }
+    }
+}
+
+/// The measures of one layer (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LayerMetrics {
+    /// The layer's pattern name.
+    pub pattern: String,
+    /// Extrusion starts (valve openings).
+    pub starts: u32,
+    /// Length moved without depositing, mm.
+    pub travel_mm: f64,
+    /// Length moved depositing, mm.
+    pub extruded_mm: f64,
+    /// Share of the printable region covered at least once.
+    pub coverage: f64,
+    /// Material-region area covered two or more times, over the printable region's area.
+    pub overfill: f64,
+    /// Area covered inside hollow features or outside the wall, over the printable region's
+    /// area.
+    pub spill: f64,
+    /// Mean half-L1 distance between deposited composition and the blended field.
+    pub composition_error: f64,
+    /// Largest half-L1 deviation from a feature's material on its keep-out curve.
+    pub feature_composition_error: f64,
+}
+
+/// The roads of a path: each a range of vertex indices, from the vertex the road starts at
+/// (reached by travel) to its last vertex, over a maximal run of depositing moves. The first
+/// vertex is reached by travel whatever its `deposit` flag says.
+pub fn road_runs(path: &[Vertex]) -> Vec<Range<usize>> {
+    let mut runs = Vec::new();
+    let mut k = 1;
+    while k < path.len() {
+        if !path[k].deposit {
+            k += 1;
+            continue;
+        }
+        let start = k - 1;
+        while k < path.len() && path[k].deposit {
+            k += 1;
+        }
+        runs.push(start..k);
+    }
+    runs
+}
+
+/// Half the L1 distance between two compositions (0: equal, 1: disjoint).
+pub fn half_l1(a: &Material, b: &Material) -> f64 {
+    0.5 * a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x as f64 - *y as f64).abs())
+        .sum::<f64>()
+}
+
+/// Length of segment `ab` in f64.
+fn length(a: Point, b: Point) -> f64 {
+    (b.x as f64 - a.x as f64).hypot(b.y as f64 - a.y as f64)
+}
+
+/// A slice's raster, kept to measure many layers of the same slice.
+pub struct Meter<'s> {
+    slice: &'s Slice,
+    options: Options,
+    raster: Raster,
+    printable: usize,
+    /// Composition samples: (squared distance to the nearest road, its composition there).
+    samples: Vec<(f32, Material)>,
+    sx: usize,
+}
+
+impl<'s> Meter<'s> {
+    /// Rasterises `slice` for measuring.
+    pub fn new(slice: &'s Slice, options: Options) -> Meter<'s> {
+        let raster = Raster::new(slice, options.cell);
+        let printable = raster.printable_cells();
+        let s = options.composition_stride.max(1);
+        let sx = raster.nx.div_ceil(s);
+        let sy = raster.ny.div_ceil(s);
+        Meter {
+            slice,
+            options,
+            printable,
+            samples: vec![(f32::INFINITY, [0.0; CHANNELS]); sx * sy],
+            sx,
+            raster,
+        }
+    }
+
+    /// The raster (with the counts of the last layer measured).
+    pub fn raster(&self) -> &Raster {
+        &self.raster
+    }
+
+    /// Area of the printable region as rasterised, mm^2.
+    pub fn printable_area(&self) -> f64 {
+        self.printable as f64 * (self.options.cell as f64).powi(2)
+    }
+
+    /// Measures one layer's path; `field` gives the blended composition wanted at a point.
+    pub fn measure(
+        &mut self,
+        pattern: Pattern,
+        path: &[Vertex],
+        field: &dyn Fn(Point) -> Option<Material>,
+    ) -> LayerMetrics {
+        let slice = self.slice;
+        let half = 0.5 * slice.settings().road_width;
+        let stride = self.options.composition_stride.max(1);
+        let sx = self.sx;
+        self.raster.clear();
+        self.samples.fill((f32::INFINITY, [0.0; CHANNELS]));
+
+        let mut starts = 0u32;
+        let mut travel_mm = 0.0;
+        let mut extruded_mm = 0.0;
+        let mut depositing = false;
+        for w in path.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            let len = length(a.at, b.at);
+            if !b.deposit {
+                travel_mm += len;
+                depositing = false;
+                continue;
+            }
+            if !depositing {
+                starts += 1;
+                self.raster.begin_stroke(self.options.revisit);
+                depositing = true;
+            }
+            extruded_mm += len;
+            let samples = &mut self.samples;
+            self.raster.stamp_segment(a.at, b.at, half, |h: Hit| {
+                if h.region != Region::Printable || h.i % stride != 0 || h.j % stride != 0 {
+                    return;
+                }
+                let s = &mut samples[(h.j / stride) * sx + h.i / stride];
+                if h.d2 < s.0 {
+                    *s = (h.d2, blend(&a.material, &b.material, h.t));
+                }
+            });
+        }
+
+        let (mut covered, mut twice, mut spilt) = (0usize, 0usize, 0usize);
+        for (&region, &count) in self.raster.region.iter().zip(&self.raster.count) {
+            match region {
+                Region::Printable => {
+                    covered += usize::from(count >= 1);
+                    twice += usize::from(count >= 2);
+                }
+                Region::Margin => twice += usize::from(count >= 2),
+                Region::Void => spilt += usize::from(count >= 1),
+            }
+        }
+        spilt += self.raster.outside_cells();
+        let region = self.printable.max(1) as f64;
+
+        let (mut err, mut sampled) = (0.0, 0usize);
+        for (q, (d2, m)) in self.samples.iter().enumerate() {
+            if !d2.is_finite() {
+                continue;
+            }
+            let p = self.raster.centre((q % sx) * stride, (q / sx) * stride);
+            if let Some(f) = field(p) {
+                err += half_l1(m, &f);
+                sampled += 1;
+            }
+        }
+
+        LayerMetrics {
+            pattern: pattern.name().to_string(),
+            starts,
+            travel_mm,
+            extruded_mm,
+            coverage: covered as f64 / region,
+            overfill: twice as f64 / region,
+            spill: spilt as f64 / region,
+            composition_error: if sampled > 0 {
+                err / sampled as f64
+            } else {
+                0.0
+            },
+            feature_composition_error: feature_error(slice, path, self.options.keep_out_tol),
+        }
+    }
+}
+
+/// The largest half-L1 deviation between a deposited vertex on a feature's keep-out curve and
+/// that feature's material.
+fn feature_error(slice: &Slice, path: &[Vertex], tol: f32) -> f64 {
+    let half = 0.5 * slice.settings().road_width;
+    let mut worst = 0.0f64;
+    for (k, v) in path.iter().enumerate() {
+        let deposited = (k > 0 && v.deposit) || path.get(k + 1).is_some_and(|next| next.deposit);
+        if !deposited {
+            continue;
+        }
+        for h in slice.holes() {
+            if polygon::bbox_distance(h.bbox(), v.at) > half + tol {
+                continue;
+            }
+            if (h.signed_distance(v.at) - half).abs() < tol {
+                worst = worst.max(half_l1(&v.material, &h.material()));
+            }
+        }
+        if (slice.wall_clearance(v.at) - half).abs() < tol {
+            worst = worst.max(half_l1(&v.material, &slice.wall().material()));
+        }
+    }
+    worst
+}
+
+/// Measures one layer of `slice` on a 0.025 mm raster ([`Options::default`]).
+pub fn measure(
+    slice: &Slice,
+    pattern: Pattern,
+    path: &[Vertex],
+    field: &dyn Fn(Point) -> Option<Material>,
+) -> LayerMetrics {
+    measure_with(slice, pattern, path, field, &Options::default())
+}
+
+/// [`measure`] with other options (a coarser raster for quick checks, say).
+pub fn measure_with(
+    slice: &Slice,
+    pattern: Pattern,
+    path: &[Vertex],
+    field: &dyn Fn(Point) -> Option<Material>,
+    options: &Options,
+) -> LayerMetrics {
+    Meter::new(slice, *options).measure(pattern, path, field)
+}

@@ -1,0 +1,264 @@
+//! Pictures of a layer's toolpath: the wall and the hollow features outlined, roads drawn at
+//! the road width in the colour of their composition (a road whose composition changes along a
+//! move is drawn in short pieces so the gradient shows), travel moves as thin dashed lines.
+//! [`layer_svg`] writes SVG (y up, as in [`crate::render`]); [`layer_png`] paints a PNG with
+//! tiny-skia.
+
+use std::fmt::Write;
+
+use hollowpath::geometry::Point;
+use hollowpath::toolpath::composition::blend;
+use hollowpath::toolpath::Vertex;
+use hollowpath::{Material, Slice};
+use tiny_skia::{
+    Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, StrokeDash, Transform,
+};
+
+use crate::metrics::road_runs;
+use crate::render::colour;
+
+/// Blank border around the wall's bounding box, mm.
+pub const MARGIN_MM: f32 = 1.0;
+/// Fill of the hollow features.
+pub const HOLE_FILL: &str = "#eeeeee";
+/// Colour of travel moves.
+pub const TRAVEL_COLOUR: &str = "#555555";
+
+/// Pieces a move of `len` mm between compositions `a` and `b` is drawn in: one if both show in
+/// the same colour, else about one per half road width (at most 16).
+fn pieces(a: &Material, b: &Material, len: f32, w: f32) -> usize {
+    if colour(a) == colour(b) {
+        1
+    } else {
+        ((len / (0.5 * w)).ceil() as usize).clamp(2, 16)
+    }
+}
+
+/// `(x0, y1, width, height)` of the picture in mm: the wall's box grown by [`MARGIN_MM`]
+/// (`x0` its left edge, `y1` its top).
+fn frame(slice: &Slice) -> (f32, f32, f32, f32) {
+    let (lo, hi) = slice.wall().bbox();
+    (
+        lo.x - MARGIN_MM,
+        hi.y + MARGIN_MM,
+        hi.x - lo.x + 2.0 * MARGIN_MM,
+        hi.y - lo.y + 2.0 * MARGIN_MM,
+    )
+}
+
+fn svg_path(pts: &[Point], close: bool) -> String {
+    let mut s = String::new();
+    for (k, p) in pts.iter().enumerate() {
+        let _ = write!(
+            s,
+            "{}{:.4},{:.4} ",
+            if k == 0 { "M" } else { "L" },
+            p.x,
+            -p.y
+        );
+    }
+    if close {
+        s.push('Z');
+    }
+    s.trim_end().to_string()
+}
+
+/// The layer as SVG: one `<path class="road">` per road (a maximal run of depositing moves),
+/// with `<line class="shade">` pieces over it where its composition changes, and one dashed
+/// `<line class="travel">` per travel move.
+pub fn layer_svg(slice: &Slice, path: &[Vertex]) -> String {
+    let (x0, y1, fw, fh) = frame(slice);
+    let w = slice.settings().road_width;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0} {} {fw} {fh}" width="{}" height="{}">"#,
+        -y1,
+        (fw * 25.0) as u32,
+        (fh * 25.0) as u32
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="{x0}" y="{}" width="100%" height="100%" fill="white"/>"#,
+        -y1
+    );
+    for h in slice.holes() {
+        let _ = writeln!(
+            s,
+            r#"<path class="hole" d="{}" fill="{HOLE_FILL}" stroke="{}" stroke-width="0.08"/>"#,
+            svg_path(h.points(), true),
+            colour(&h.material())
+        );
+    }
+    for run in road_runs(path) {
+        let road = &path[run];
+        let pts: Vec<Point> = road.iter().map(|v| v.at).collect();
+        let _ = writeln!(
+            s,
+            r#"<path class="road" d="{}" fill="none" stroke="{}" stroke-width="{w}" stroke-linecap="round" stroke-linejoin="round"/>"#,
+            svg_path(&pts, false),
+            colour(&road[0].material)
+        );
+        let base = colour(&road[0].material);
+        if road.iter().all(|v| colour(&v.material) == base) {
+            continue;
+        }
+        for seg in road.windows(2) {
+            let (a, b) = (&seg[0], &seg[1]);
+            let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
+            for k in 0..n {
+                let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
+                let (p, q) = (a.at.lerp(b.at, t0), a.at.lerp(b.at, t1));
+                let m = blend(&a.material, &b.material, 0.5 * (t0 + t1));
+                let _ = writeln!(
+                    s,
+                    r#"<line class="shade" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{}" stroke-width="{w}" stroke-linecap="round"/>"#,
+                    p.x,
+                    -p.y,
+                    q.x,
+                    -q.y,
+                    colour(&m)
+                );
+            }
+        }
+    }
+    for (k, v) in path.iter().enumerate().skip(1) {
+        if v.deposit {
+            continue;
+        }
+        let p = path[k - 1].at;
+        let _ = writeln!(
+            s,
+            r#"<line class="travel" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{TRAVEL_COLOUR}" stroke-width="0.05" stroke-dasharray="0.3,0.2"/>"#,
+            p.x, -p.y, v.at.x, -v.at.y
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<path class="wall" d="{}" fill="none" stroke="{}" stroke-width="0.12"/>"#,
+        svg_path(slice.wall().points(), true),
+        colour(&slice.wall().material())
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The size in pixels of [`layer_png`]'s picture of `slice` at `px_per_mm`.
+pub fn png_size(slice: &Slice, px_per_mm: f32) -> (u32, u32) {
+    let (_, _, fw, fh) = frame(slice);
+    (
+        ((fw * px_per_mm).ceil() as u32).max(1),
+        ((fh * px_per_mm).ceil() as u32).max(1),
+    )
+}
+
+/// `#rrggbb` as an opaque colour.
+fn parse_colour(hex: &str) -> Color {
+    let c = |k: usize| u8::from_str_radix(hex.get(k..k + 2).unwrap_or("00"), 16).unwrap_or(0);
+    Color::from_rgba8(c(1), c(3), c(5), 255)
+}
+
+fn paint_of(hex: &str, anti_alias: bool) -> Paint<'static> {
+    let mut p = Paint::default();
+    p.set_color(parse_colour(hex));
+    p.anti_alias = anti_alias;
+    p
+}
+
+/// The layer as a PNG at `px_per_mm` pixels per millimetre (same picture as [`layer_svg`]).
+/// Roads are painted without anti-aliasing, so roads that abut leave no pale seam that would
+/// read as a gap; outlines and travel are anti-aliased.
+pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
+    let (x0, y1, _, _) = frame(slice);
+    let (width, height) = png_size(slice, px_per_mm);
+    let mut pixmap = Pixmap::new(width, height).expect("picture size is positive");
+    pixmap.fill(Color::WHITE);
+    let s = px_per_mm;
+    let px = |p: Point| ((p.x - x0) * s, (y1 - p.y) * s);
+    let polyline = |pts: &[Point], close: bool| {
+        let mut b = PathBuilder::new();
+        for (k, &p) in pts.iter().enumerate() {
+            let (x, y) = px(p);
+            if k == 0 {
+                b.move_to(x, y);
+            } else {
+                b.line_to(x, y);
+            }
+        }
+        if close {
+            b.close();
+        }
+        b.finish()
+    };
+    let outline = Stroke {
+        width: (0.08 * s).max(1.0),
+        ..Stroke::default()
+    };
+    let id = Transform::identity();
+    for h in slice.holes() {
+        if let Some(p) = polyline(h.points(), true) {
+            pixmap.fill_path(&p, &paint_of(HOLE_FILL, true), FillRule::Winding, id, None);
+        }
+    }
+    let w = slice.settings().road_width;
+    let road = Stroke {
+        width: w * s,
+        line_cap: LineCap::Round,
+        line_join: LineJoin::Round,
+        ..Stroke::default()
+    };
+    for run in road_runs(path) {
+        let verts = &path[run];
+        let base = colour(&verts[0].material);
+        if verts.iter().all(|v| colour(&v.material) == base) {
+            let pts: Vec<Point> = verts.iter().map(|v| v.at).collect();
+            // A road of one zero-length move is a dot: a round cap needs a direction.
+            let pts = if pts.len() == 2 && pts[0] == pts[1] {
+                vec![pts[0], Point::new(pts[0].x + 1e-4, pts[0].y)]
+            } else {
+                pts
+            };
+            if let Some(p) = polyline(&pts, false) {
+                pixmap.stroke_path(&p, &paint_of(&base, false), &road, id, None);
+            }
+            continue;
+        }
+        for seg in verts.windows(2) {
+            let (a, b) = (&seg[0], &seg[1]);
+            let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
+            for k in 0..n {
+                let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
+                let m = blend(&a.material, &b.material, 0.5 * (t0 + t1));
+                if let Some(p) = polyline(&[a.at.lerp(b.at, t0), a.at.lerp(b.at, t1)], false) {
+                    pixmap.stroke_path(&p, &paint_of(&colour(&m), false), &road, id, None);
+                }
+            }
+        }
+    }
+    let travel = Stroke {
+        width: 1.0,
+        dash: StrokeDash::new(vec![0.3 * s, 0.2 * s], 0.0),
+        ..Stroke::default()
+    };
+    for (k, v) in path.iter().enumerate().skip(1) {
+        if v.deposit || v.at == path[k - 1].at {
+            continue;
+        }
+        if let Some(p) = polyline(&[path[k - 1].at, v.at], false) {
+            pixmap.stroke_path(&p, &paint_of(TRAVEL_COLOUR, true), &travel, id, None);
+        }
+    }
+    for (pts, m) in slice
+        .holes()
+        .iter()
+        .map(|h| (h.points(), h.material()))
+        .chain([(slice.wall().points(), slice.wall().material())])
+    {
+        if let Some(p) = polyline(pts, true) {
+            pixmap.stroke_path(&p, &paint_of(&colour(&m), true), &outline, id, None);
+        }
+    }
+    pixmap
+        .encode_png()
+        .expect("encoding an in-memory PNG cannot fail")
+}

@@ -1,0 +1,163 @@
+//! The keep-out curve of a feature: the curve half a road width off its boundary, on the side
+//! of the printable region. A road centred on it puts its edge on the feature, not inside it.
+//!
+//! The curve is parametrised by arc length `s` along the feature's own polygon (so the
+//! parameter of a hole's MCL start is the same on the hole and on its keep-out curve). Normals
+//! are interpolated between vertices, so the curve is smooth where the polygon samples a smooth
+//! outline; where the feature is concave the point is pulled back to exactly half a road
+//! width.
+
+use crate::config::MAX_VERTICES;
+use crate::geometry::{polygon, Point};
+use crate::Feature;
+
+/// Which side of the feature the printable region lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Outside the polygon (a hollow feature).
+    Outside,
+    /// Inside the polygon (the wall).
+    Inside,
+}
+
+/// A feature's keep-out curve.
+pub struct KeepOut<'a> {
+    feature: &'a Feature,
+    normals: [Point; MAX_VERTICES],
+    /// Arc length of the polygon up to each vertex.
+    at_vertex: [f32; MAX_VERTICES],
+    length: f32,
+    half: f32,
+}
+
+impl<'a> KeepOut<'a> {
+    /// The curve `half` off `feature`, on `side`.
+    pub fn new(feature: &'a Feature, half: f32, side: Side) -> KeepOut<'a> {
+        let pts = feature.points();
+        let n = pts.len();
+        let sign = match side {
+            Side::Outside => 1.0,
+            Side::Inside => -1.0,
+        };
+        // Counter-clockwise: the outward normal of edge a->b is (dy, -dx).
+        let edge_normal = |k: usize| {
+            let d = pts[(k + 1) % n] - pts[k];
+            Point::new(d.y, -d.x).normalized() * sign
+        };
+        let mut normals = [Point::default(); MAX_VERTICES];
+        let mut at_vertex = [0.0; MAX_VERTICES];
+        let mut acc = 0.0;
+        for k in 0..n {
+            normals[k] = (edge_normal((k + n - 1) % n) + edge_normal(k)).normalized();
+            at_vertex[k] = acc;
+            acc += pts[k].dist(pts[(k + 1) % n]);
+        }
+        KeepOut {
+            feature,
+            normals,
+            at_vertex,
+            length: polygon::perimeter(pts),
+            half,
+        }
+    }
+
+    /// Length of the parameter domain (the feature's perimeter).
+    pub fn length(&self) -> f32 {
+        self.length
+    }
+
+    /// `s` wrapped into `[0, length)`.
+    pub fn wrap(&self, s: f32) -> f32 {
+        let r = s % self.length;
+        if r < 0.0 {
+            r + self.length
+        } else {
+            r
+        }
+    }
+
+    /// The feature's boundary point at `s` and the unit normal towards the region there.
+    pub fn base(&self, s: f32) -> (Point, Point) {
+        let pts = self.feature.points();
+        let n = pts.len();
+        let s = self.wrap(s);
+        // The edge holding s: the last vertex at or before it.
+        let k = match self.at_vertex[..n].binary_search_by(|x| x.total_cmp(&s)) {
+            Ok(k) => k,
+            Err(k) => k.saturating_sub(1),
+        };
+        let (a, b) = (pts[k], pts[(k + 1) % n]);
+        let l = a.dist(b);
+        let t = if l > 0.0 {
+            ((s - self.at_vertex[k]) / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let nrm = self.normals[k]
+            .lerp(self.normals[(k + 1) % n], t)
+            .normalized();
+        (a.lerp(b, t), nrm)
+    }
+
+    /// The keep-out curve's point at `s`.
+    pub fn at(&self, s: f32) -> Point {
+        let (q, normal) = self.base(s);
+        let mut p = q + normal * self.half;
+        for _ in 0..3 {
+            let near = self.feature.nearest(p);
+            let d = libm::fabsf(near.distance);
+            if d >= self.half - 1e-5 {
+                break;
+            }
+            p = near.point + (p - near.point).normalized() * self.half;
+        }
+        p
+    }
+
+    /// The parameter of the feature point nearest to `p`.
+    pub fn param_of(&self, p: Point) -> f32 {
+        let near = self.feature.nearest(p);
+        let k = near.edge;
+        self.at_vertex[k] + self.feature.points()[k].dist(near.point)
+    }
+
+    /// Calls `f` with the curve's points from `s0` to `s1` (inclusive), going forward
+    /// (increasing `s`, counter-clockwise) or backward, through every vertex in between.
+    pub fn arc(&self, s0: f32, s1: f32, forward: bool, mut f: impl FnMut(Point, f32)) {
+        let n = self.feature.points().len();
+        let span = if forward {
+            self.wrap(s1 - s0)
+        } else {
+            self.wrap(s0 - s1)
+        };
+        f(self.at(s0), s0);
+        let s0w = self.wrap(s0);
+        // Vertices strictly inside the span, in travel order.
+        for step in 0..n {
+            let k = if forward {
+                // First vertex after s0 going forward.
+                let first = self.at_vertex[..n].partition_point(|&x| x <= s0w) % n;
+                (first + step) % n
+            } else {
+                let first = (self.at_vertex[..n].partition_point(|&x| x < s0w) + n - 1) % n;
+                (first + n - step) % n
+            };
+            let sv = self.at_vertex[k];
+            let d = if forward {
+                self.wrap(sv - s0w)
+            } else {
+                self.wrap(s0w - sv)
+            };
+            if d <= 1e-6 {
+                continue;
+            }
+            if d >= span {
+                break;
+            }
+            f(self.at(sv), sv);
+        }
+        if span > 1e-6 {
+            f(self.at(s1), s1);
+        }
+    }
+}

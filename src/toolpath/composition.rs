@@ -1,0 +1,106 @@
+//! Composition: blended between the materials of the features an MCL joins, by parametric
+//! distance along it (paper, section 3).
+
+use crate::config::CHANNELS;
+use crate::geometry::{polyline, Point};
+use crate::{Material, Plan, Slice, Target};
+
+/// `(1 - t) a + t b`, channel by channel; exactly `a` at `t = 0` and `b` at `t = 1`.
+///
+/// ```
+/// use hollowpath::toolpath::composition::blend;
+/// let m = blend(&[1.0, 0.0, 0.0, 0.0], &[0.0, 1.0, 0.0, 0.0], 0.25);
+/// assert_eq!(m, [0.75, 0.25, 0.0, 0.0]);
+/// ```
+pub fn blend(a: &Material, b: &Material, t: f32) -> Material {
+    let t = t.clamp(0.0, 1.0);
+    if t == 0.0 {
+        return *a;
+    }
+    if t == 1.0 {
+        return *b;
+    }
+    let mut m = [0.0; CHANNELS];
+    for c in 0..CHANNELS {
+        m[c] = a[c] + (b[c] - a[c]) * t;
+    }
+    m
+}
+
+/// The materials at the two ends of MCL `k` of `plan`: its `from` hole's and the wall's or the
+/// `to` hole's.
+pub fn mcl_end_materials(slice: &Slice, plan: &Plan, k: usize) -> (Material, Material) {
+    let m = &plan.mcls[k];
+    let a = slice.holes()[m.from as usize].material();
+    let b = match m.to {
+        Target::Wall => slice.wall().material(),
+        Target::Hole(j) => slice.holes()[j as usize].material(),
+    };
+    (a, b)
+}
+
+/// The composition at arc length `s` along a polyline of length `len` whose ends carry `a`
+/// and `b`.
+pub fn along(a: &Material, b: &Material, s: f32, len: f32) -> Material {
+    if len <= 0.0 {
+        return *a;
+    }
+    blend(a, b, s / len)
+}
+
+/// The blended field: at any point, the composition of the nearest point on any MCL, by its
+/// parametric distance along that MCL. Keeps each MCL's bounding box so far MCLs are skipped.
+///
+/// ```
+/// # use hollowpath::{Feature, FeatureId, Planner, Settings, Slice, geometry::Point};
+/// # use hollowpath::toolpath::composition::BlendedField;
+/// # let circle = |r: f32, n: usize| -> Vec<Point> {
+/// #     (0..n).map(|k| { let a = k as f32 / n as f32 * std::f32::consts::TAU; Point::new(r * a.cos(), r * a.sin()) }).collect()
+/// # };
+/// let wall = Feature::new(FeatureId::Wall, &circle(8.0, 64), [1.0, 0.0, 0.0, 0.0]).unwrap();
+/// let hole = Feature::new(FeatureId::Hole(0), &circle(4.0, 48), [0.0, 1.0, 0.0, 0.0]).unwrap();
+/// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
+/// let mut planner = Box::new(Planner::new());
+/// let plan = planner.plan(&slice).unwrap();
+/// let field = BlendedField::new(&slice, plan);
+/// // Half way between the hole and the wall the two materials are blended about evenly.
+/// let m = field.at(Point::new(6.0, 0.0)).unwrap();
+/// assert!((m[0] - 0.5).abs() < 0.05 && (m[1] - 0.5).abs() < 0.05);
+/// ```
+pub struct BlendedField<'a> {
+    slice: &'a Slice,
+    plan: &'a Plan,
+    boxes: heapless::Vec<(Point, Point), { crate::config::MAX_MCLS }>,
+}
+
+impl<'a> BlendedField<'a> {
+    /// The field of `plan`'s MCLs.
+    pub fn new(slice: &'a Slice, plan: &'a Plan) -> BlendedField<'a> {
+        let mut boxes = heapless::Vec::new();
+        for m in plan.mcls.iter() {
+            // One box per MCL; capacities match.
+            let _ = boxes.push(polyline::bbox(&plan.points(m)));
+        }
+        BlendedField { slice, plan, boxes }
+    }
+
+    /// The composition at `p`; `None` for a plan without MCLs.
+    pub fn at(&self, p: Point) -> Option<Material> {
+        let mut best: Option<(f32, usize, f32)> = None;
+        for (k, m) in self.plan.mcls.iter().enumerate() {
+            if best
+                .is_some_and(|b| crate::geometry::polygon::bbox_distance(self.boxes[k], p) >= b.0)
+            {
+                continue;
+            }
+            let pts = self.plan.points(m);
+            let (s, _, d) = polyline::project(&pts, p);
+            if best.is_none_or(|b| d < b.0) {
+                best = Some((d, k, s / polyline::length(&pts).max(1e-9)));
+            }
+        }
+        let (_, k, t) = best?;
+        let (a, b) = mcl_end_materials(self.slice, self.plan, k);
+        Some(blend(&a, &b, t))
+    }
+}

@@ -1,0 +1,194 @@
+//! Toolpaths: what the nozzle does on one layer, as a sequence of [`Vertex`]es.
+//!
+//! A layer is written vertex by vertex into a [`PathSink`] (a fixed-capacity buffer on the
+//! MCU, a growable one on the host), so nothing here needs an allocator and a long layer can be
+//! streamed to the motion planner. Each vertex says where the nozzle goes, the composition it
+//! deposits there, and whether the move into it deposits (a road) or travels (valves shut).
+
+pub mod composition;
+pub mod raster;
+pub mod spiral;
+pub mod zigzag;
+
+use crate::geometry::Point;
+use crate::{Error, FeatureId, Limit, Material, Slice};
+
+/// The fill pattern of a layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Pattern {
+    /// Crosshatch along the MCLs (paper, section 2.3).
+    Zigzag,
+    /// Spiral across the MCLs in every cell (paper, section 2.4).
+    Spiral,
+    /// A Cartesian raster fill with perimeters, as ordinary slicers do (the baseline).
+    Raster,
+}
+
+impl Pattern {
+    /// The pattern's name in files and on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Pattern::Zigzag => "zigzag",
+            Pattern::Spiral => "spiral",
+            Pattern::Raster => "raster",
+        }
+    }
+}
+
+/// One vertex of a layer's path.
+///
+/// ```
+/// use hollowpath::toolpath::Vertex;
+/// use hollowpath::geometry::Point;
+/// let v = Vertex { at: Point::new(1.0, 2.0), material: [1.0, 0.0, 0.0, 0.0], deposit: true };
+/// assert!(v.deposit);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Vertex {
+    /// Where the nozzle goes, mm.
+    pub at: Point,
+    /// The composition deposited at this vertex (blended linearly along the move into it).
+    pub material: Material,
+    /// Whether the move from the previous vertex into this one deposits a road; `false` is a
+    /// travel move with the valves shut. The first vertex of a layer is always reached by
+    /// travel.
+    pub deposit: bool,
+}
+
+/// Where a layer's vertices go.
+///
+/// A full sink hands the vertex back, as `heapless::Vec::push` does; the planner turns that
+/// into [`Error::Capacity`].
+pub trait PathSink {
+    /// Appends one vertex.
+    fn push_vertex(&mut self, v: Vertex) -> Result<(), Vertex>;
+    /// The last vertex appended, if any.
+    fn last_vertex(&self) -> Option<Vertex>;
+}
+
+impl<const N: usize> PathSink for heapless::Vec<Vertex, N> {
+    fn push_vertex(&mut self, v: Vertex) -> Result<(), Vertex> {
+        self.push(v)
+    }
+    fn last_vertex(&self) -> Option<Vertex> {
+        self.last().copied()
+    }
+}
+
+#[cfg(feature = "alloc")]
+impl PathSink for alloc::vec::Vec<Vertex> {
+    fn push_vertex(&mut self, v: Vertex) -> Result<(), Vertex> {
+        self.push(v);
+        Ok(())
+    }
+    fn last_vertex(&self) -> Option<Vertex> {
+        self.last().copied()
+    }
+}
+
+/// Appends `v` to `sink`, turning a full sink into a capacity error.
+pub(crate) fn emit(sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
+    sink.push_vertex(v).map_err(|_| Error::Capacity {
+        limit: Limit::PathVertices,
+        feature: None,
+    })
+}
+
+/// Appends `v` to `sink` as [`emit`] does, first bending a depositing move into the printable
+/// region where its straight chord would cut into a keep-out band (the sagitta of a chord
+/// across a convex feature or along a convex wall): midpoints that fall short are pushed out to
+/// exactly half a road width, recursively, with the composition blended along the move.
+pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
+    if let (Some(prev), true) = (sink.last_vertex(), v.deposit) {
+        bend(slice, sink, prev, v, 6)?;
+    }
+    emit(sink, v)
+}
+
+fn bend(
+    slice: &Slice,
+    sink: &mut impl PathSink,
+    a: Vertex,
+    b: Vertex,
+    depth: u8,
+) -> Result<(), Error> {
+    let half = 0.5 * slice.settings().road_width;
+    if depth == 0 || a.at.dist(b.at) < 0.02 * half {
+        return Ok(());
+    }
+    // Where the chord comes nearest a feature: two segments are nearest at an end of one of
+    // them, and the chord's ends are in the region, so it is nearest at a feature's vertex.
+    let Some((t, c)) = deepest_dip(slice, a.at, b.at, half) else {
+        return Ok(());
+    };
+    let (pushed, onto) = into_region(slice, c, half);
+    if pushed.dist(c) < 1e-6 {
+        return Ok(());
+    }
+    let worst = (0.0f32, t, pushed, onto);
+    // A point put on a feature's keep-out curve deposits at that feature: its material.
+    let material = match worst.3 {
+        Some(FeatureId::Hole(i)) => slice.holes()[i as usize].material(),
+        Some(FeatureId::Wall) => slice.wall().material(),
+        None => composition::blend(&a.material, &b.material, worst.1),
+    };
+    let mid = Vertex {
+        at: worst.2,
+        material,
+        deposit: true,
+    };
+    bend(slice, sink, a, mid, depth - 1)?;
+    emit(sink, mid)?;
+    bend(slice, sink, mid, b, depth - 1)
+}
+
+/// The point of segment `ab` that dips deepest into a keep-out band, with its parameter; `None`
+/// if the segment keeps half a road width from every feature.
+fn deepest_dip(slice: &Slice, a: Point, b: Point, half: f32) -> Option<(f32, Point)> {
+    let lo = Point::new(a.x.min(b.x) - half, a.y.min(b.y) - half);
+    let hi = Point::new(a.x.max(b.x) + half, a.y.max(b.y) + half);
+    let mut best: Option<(f32, f32, Point)> = None;
+    let mut consider = |pts: &[Point]| {
+        for &q in pts {
+            if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
+                continue;
+            }
+            let (c, t) = crate::geometry::polyline::closest_on_segment(a, b, q);
+            let d = c.dist(q);
+            if d < half && best.is_none_or(|x| d < x.0) {
+                best = Some((d, t, c));
+            }
+        }
+    };
+    for h in slice.holes() {
+        let bb = h.bbox();
+        if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
+            consider(h.points());
+        }
+    }
+    consider(slice.wall().points());
+    best.map(|(_, t, c)| (t, c))
+}
+
+/// `p` moved out of any keep-out band onto its edge (half a road width from the feature),
+/// and the feature it was moved off, if any.
+pub(crate) fn into_region(slice: &Slice, mut p: Point, half: f32) -> (Point, Option<FeatureId>) {
+    let mut onto = None;
+    for _ in 0..2 {
+        let (i, d, _, _) = slice.nearest_holes(p);
+        if d < half {
+            let near = slice.holes()[i].nearest(p);
+            p = near.point + near.gradient(p) * half;
+            onto = Some(FeatureId::Hole(i as u8));
+        }
+        let near = slice.wall().nearest(p);
+        if -near.distance < half {
+            // Inside the wall the gradient of the signed distance points out; go the other way.
+            p = near.point - near.gradient(p) * half;
+            onto = Some(FeatureId::Wall);
+        }
+    }
+    (p, onto)
+}

@@ -1,0 +1,269 @@
+//! The spiral layer (paper, section 2.4): in every Voronoi cell a spiral across the MCLs,
+//! `S(t) = MCL_v(u)` with `u = f(v)`.
+//!
+//! `v` runs over the MCL halves around the feature, turn after turn; `u` is the position along
+//! the half, from the feature (0) to the cell boundary (1), given by the control function `f`
+//! the user chooses ([`ControlFunction`]). Each cell's spiral runs outwards. Beyond the paper,
+//! the cells' spirals are chained into one road wherever they touch: a spiral ends on the joint
+//! `p*` of a matched MCL, the road follows that MCL's other half inwards to the next feature,
+//! and that cell's spiral starts there. Cells are visited along a path through the cells'
+//! adjacency (matched MCLs); only where no such path exists does the road jump.
+//!
+//! Where a half ends on a bisector the spiral stops half a road width short of it, so the
+//! spirals of the two cells do not deposit on the same line.
+
+use heapless::Vec;
+
+use crate::config::{MAX_HALVES, MAX_HOLES};
+use crate::geometry::polyline;
+use crate::mcl::HalfEnd;
+use crate::toolpath::composition::{along, mcl_end_materials};
+use crate::toolpath::{emit_move, PathSink, Vertex};
+use crate::{Error, Plan, Slice};
+
+/// The spiral control function `u = f(v)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ControlFunction {
+    /// `u` grows linearly with `v` (the paper's `f(v) = v`): every MCL is divided into the same
+    /// number of turns, so turns are closer on short MCLs than on long ones.
+    Linear,
+    /// Turns a road width apart along every MCL: the position along an MCL grows by one road
+    /// width per turn and stops at the MCL's end, so short MCLs are finished in fewer turns.
+    RoadWidth,
+    /// `u = v - sin(2 pi v) / (4 pi)`: turns half as far apart as [`Linear`](Self::Linear)'s
+    /// at the feature and at the cell boundary and half again as far in between, for a denser
+    /// deposit where the material meets the features and the neighbouring cells.
+    Ease,
+}
+
+impl ControlFunction {
+    /// The name on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ControlFunction::Linear => "linear",
+            ControlFunction::RoadWidth => "road-width",
+            ControlFunction::Ease => "ease",
+        }
+    }
+}
+
+/// Counters of a spiral layer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SpiralStats {
+    /// Cells whose spiral was started by a jump (travel) rather than a connecting road.
+    pub jumps: u16,
+    /// Turns of the spiral in the first cell.
+    pub turns: u16,
+}
+
+/// One half in a cell's cycle: its index, the MCL it belongs to, whether it is that MCL's
+/// first half, and the length the spiral may use.
+#[derive(Clone, Copy)]
+struct Spoke {
+    half: u16,
+    mcl: u16,
+    first: bool,
+    usable: f32,
+}
+
+fn spokes(plan: &Plan, hole: usize, half_width: f32) -> Vec<Spoke, MAX_HALVES> {
+    let order = crate::mcl::insert::sorted_halves(&plan.halves, hole);
+    let mut out: Vec<Spoke, MAX_HALVES> = Vec::new();
+    for &h in order.iter() {
+        let Some((k, m)) = plan
+            .mcls
+            .iter()
+            .enumerate()
+            .find(|(_, m)| m.first == h || m.second == Some(h))
+        else {
+            continue;
+        };
+        let half = &plan.halves[h as usize];
+        let len = polyline::length(&half.points);
+        let usable = if half.end == HalfEnd::Wall {
+            len
+        } else {
+            (len - half_width).max(0.0)
+        };
+        let _ = out.push(Spoke {
+            half: h,
+            mcl: k as u16,
+            first: m.first == h,
+            usable,
+        });
+    }
+    out
+}
+
+/// Writes the spiral layer of `plan` into `sink`.
+pub fn spiral(
+    slice: &Slice,
+    plan: &Plan,
+    f: ControlFunction,
+    sink: &mut impl PathSink,
+) -> Result<SpiralStats, Error> {
+    let w = slice.settings().road_width;
+    let holes = slice.holes().len();
+    let mut stats = SpiralStats::default();
+    // Adjacency: the shortest matched MCL between each pair of cells.
+    let mut link = [[None::<(u16, f32)>; MAX_HOLES]; MAX_HOLES];
+    for (k, m) in plan.mcls.iter().enumerate() {
+        if let (crate::Target::Hole(j), Some(_)) = (m.to, m.second) {
+            let len = polyline::length(&plan.points(m));
+            let (a, b) = (m.from as usize, j as usize);
+            if link[a][b].is_none_or(|l| len < l.1) {
+                link[a][b] = Some((k as u16, len));
+                link[b][a] = Some((k as u16, len));
+            }
+        }
+    }
+    let order = cell_order(holes, &link);
+    let mut entry: Option<u16> = None; // the half the road arrives on, from the previous cell
+    for (pos, &cell) in order.iter().enumerate() {
+        let cell = cell as usize;
+        let sp = spokes(plan, cell, 0.5 * w);
+        if sp.is_empty() {
+            continue;
+        }
+        let n = sp.len();
+        // Where to start: the half we arrived on (its start is on this feature).
+        let start = entry.and_then(|h| sp.iter().position(|s| s.half == h));
+        if pos > 0 && start.is_none() {
+            stats.jumps += 1;
+        }
+        let start = start.unwrap_or(0);
+        // Where to end: on the half that leads to the next cell.
+        let next = order.get(pos + 1).map(|&c| c as usize);
+        let exit = next.and_then(|nc| link[cell][nc]).and_then(|(k, _)| {
+            let m = &plan.mcls[k as usize];
+            sp.iter()
+                .position(|s| s.mcl == k && (m.from as usize == cell) == s.first)
+        });
+        let end = exit.unwrap_or((start + n - 1) % n);
+        let extra = (end + n - start) % n;
+        let longest = sp.iter().map(|s| s.usable).fold(0.0f32, f32::max);
+        let mean = sp.iter().map(|s| s.usable).sum::<f32>() / n as f32;
+        let turns = match f {
+            ControlFunction::RoadWidth => libm::ceilf(longest / w).max(1.0),
+            _ => libm::roundf(mean / w).max(1.0),
+        } as usize;
+        if pos == 0 {
+            stats.turns = turns as u16;
+        }
+        let total = turns * n + extra;
+        for v in 0..=total {
+            let s = sp[(start + v) % n];
+            let frac = v as f32 / total as f32;
+            let t = match f {
+                ControlFunction::Linear => frac * s.usable,
+                ControlFunction::Ease => {
+                    let tau = 2.0 * core::f32::consts::PI;
+                    (frac - libm::sinf(tau * frac) / (2.0 * tau)).clamp(0.0, 1.0) * s.usable
+                }
+                ControlFunction::RoadWidth => {
+                    // A road width per turn, ending exactly at the boundary on the last step.
+                    let reach = (v as f32 / n as f32) * w;
+                    if v == total {
+                        s.usable
+                    } else {
+                        reach.min(s.usable)
+                    }
+                }
+            };
+            let half = &plan.halves[s.half as usize];
+            let p = polyline::point_at(&half.points, t);
+            let (ma, mb) = mcl_end_materials(slice, plan, s.mcl as usize);
+            let full = polyline::length(&plan.points(&plan.mcls[s.mcl as usize]));
+            let at_full = if s.first { t } else { full - t };
+            // Reached by travel only at the very start or after a jump (no connecting road).
+            let deposit = v != 0 || entry.is_some();
+            emit_move(
+                slice,
+                sink,
+                Vertex {
+                    at: p,
+                    material: along(&ma, &mb, at_full, full),
+                    deposit,
+                },
+            )?;
+        }
+        // Into the next cell along the other half of the exit MCL.
+        entry = None;
+        if let (Some(_), Some(e)) = (next, exit) {
+            let s = sp[e];
+            let m = &plan.mcls[s.mcl as usize];
+            let other = if s.first { m.second } else { Some(m.first) };
+            if let Some(o) = other {
+                let pts = &plan.halves[o as usize].points;
+                let (ma, mb) = mcl_end_materials(slice, plan, s.mcl as usize);
+                let full = polyline::length(&plan.points(m));
+                let mut cum = [0.0f32; crate::config::HALF_POINTS];
+                for i in 1..pts.len() {
+                    cum[i] = cum[i - 1] + pts[i - 1].dist(pts[i]);
+                }
+                let len = cum[pts.len() - 1];
+                // From just short of p* (where the spiral ended) to the next feature.
+                for i in (0..pts.len()).rev() {
+                    if len - cum[i] < 0.5 * w {
+                        continue;
+                    }
+                    let at_full = if s.first { full - cum[i] } else { cum[i] };
+                    emit_move(
+                        slice,
+                        sink,
+                        Vertex {
+                            at: pts[i],
+                            material: along(&ma, &mb, at_full, full),
+                            deposit: true,
+                        },
+                    )?;
+                }
+                entry = Some(o);
+            }
+        }
+    }
+    Ok(stats)
+}
+
+/// An order of the cells along which consecutive cells are linked, if one exists (depth-first
+/// search for a Hamiltonian path, at most eight cells); else a greedy order.
+fn cell_order(
+    holes: usize,
+    link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
+) -> Vec<u8, MAX_HOLES> {
+    fn extend(
+        path: &mut Vec<u8, MAX_HOLES>,
+        used: &mut [bool; MAX_HOLES],
+        holes: usize,
+        link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
+    ) -> bool {
+        if path.len() == holes {
+            return true;
+        }
+        let last = *path.last().unwrap_or(&0) as usize;
+        for c in 0..holes {
+            if !used[c] && link[last][c].is_some() {
+                used[c] = true;
+                let _ = path.push(c as u8);
+                if extend(path, used, holes, link) {
+                    return true;
+                }
+                path.pop();
+                used[c] = false;
+            }
+        }
+        false
+    }
+    for first in 0..holes {
+        let mut path: Vec<u8, MAX_HOLES> = Vec::new();
+        let mut used = [false; MAX_HOLES];
+        used[first] = true;
+        let _ = path.push(first as u8);
+        if extend(&mut path, &mut used, holes, link) {
+            return path;
+        }
+    }
+    (0..holes as u8).collect()
+}

@@ -1,0 +1,98 @@
+//! Layers on hand-built slices: zigzag, spiral (every control function), raster baseline.
+
+mod common;
+
+use common::{check_layer, starts, two_circles};
+use hollowpath::toolpath::spiral::{spiral, ControlFunction};
+use hollowpath::toolpath::zigzag::zigzag;
+use hollowpath::toolpath::{raster::raster, Vertex};
+use hollowpath::{Planner, Settings};
+
+type Path = heapless::Vec<Vertex, 16384>;
+
+#[test]
+fn zigzag_is_one_continuous_road_through_both_cells() {
+    let slice = two_circles(Settings::default());
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    let mut path = Box::new(Path::new());
+    let stats = zigzag(&slice, plan, &mut *path).unwrap();
+    check_layer(&slice, &path).unwrap();
+    assert_eq!(stats.pieces, 1, "{stats:?}");
+    assert_eq!(starts(&path), 1);
+    // Every MCL is deposited (none had to be left out for parity): each MCL's joint is on
+    // the path.
+    assert_eq!(stats.dropped, 0);
+    for m in plan.mcls.iter() {
+        assert!(
+            path.iter().any(|v| v.at.dist(m.joint) < 1e-3 && v.deposit),
+            "MCL ending at {:?} missing",
+            m.joint
+        );
+    }
+    // Blended composition: half way along the centre MCL it is half and half.
+    let mid = path
+        .iter()
+        .find(|v| v.at.dist(hollowpath::geometry::Point::new(0.0, 0.0)) < 1e-3)
+        .unwrap();
+    assert!(
+        (mid.material[1] - 0.5).abs() < 1e-3 && (mid.material[2] - 0.5).abs() < 1e-3,
+        "{:?}",
+        mid.material
+    );
+}
+
+#[test]
+fn spirals_of_every_control_function_chain_the_cells() {
+    let slice = two_circles(Settings::default());
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    let mut lengths = Vec::new();
+    for f in [
+        ControlFunction::Linear,
+        ControlFunction::RoadWidth,
+        ControlFunction::Ease,
+    ] {
+        let mut path = Box::new(Path::new());
+        let stats = spiral(&slice, plan, f, &mut *path).unwrap();
+        check_layer(&slice, &path).unwrap_or_else(|e| panic!("{f:?}: {e}"));
+        assert_eq!(stats.jumps, 0, "{f:?}");
+        assert_eq!(starts(&path), 1, "{f:?}");
+        assert!(stats.turns >= 5, "{f:?}: {stats:?}");
+        lengths.push(path.windows(2).map(|w| w[0].at.dist(w[1].at)).sum::<f32>());
+    }
+    // The control functions give different spirals.
+    assert!(
+        (lengths[0] - lengths[1]).abs() > 1.0 && (lengths[0] - lengths[2]).abs() > 1e-3,
+        "{lengths:?}"
+    );
+}
+
+#[test]
+fn raster_baseline_stays_in_the_region() {
+    let slice = two_circles(Settings::default());
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    for layer in 0..2 {
+        let mut path = Box::new(Path::new());
+        raster(&slice, plan, layer, &mut *path).unwrap();
+        check_layer(&slice, &path).unwrap();
+        // A perimeter per feature at least.
+        assert!(starts(&path) >= 3);
+    }
+}
+
+#[test]
+fn a_full_sink_is_a_capacity_error() {
+    let slice = two_circles(Settings::default());
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    let mut small: heapless::Vec<Vertex, 64> = heapless::Vec::new();
+    assert_eq!(
+        zigzag(&slice, plan, &mut small).unwrap_err(),
+        hollowpath::Error::Capacity {
+            limit: hollowpath::Limit::PathVertices,
+            feature: None
+        }
+    );
+}
