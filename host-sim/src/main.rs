@@ -53,8 +53,9 @@ impl From<SpiralArg> for ControlFunction {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Plan a slice file: DIR/mcls.json and mcls.svg, then per layer layer-K.svg and
-    /// layer-K.png, DIR/metrics.json and, with --gcode, G-code.
+    /// Plan a slice file: DIR/mcls.json and mcls.svg, then per layer layer-K.svg,
+    /// layer-K.png and layer-K.json (the path's vertices), DIR/metrics.json and, with --gcode,
+    /// G-code.
     Plan {
         /// The slice file (JSON, see SLICE_FORMAT.md).
         slice: PathBuf,
@@ -183,6 +184,16 @@ fn run(
         measured.push((l.note.clone(), m));
     }
     for l in &built {
+        let vertices: Vec<_> = l
+            .path
+            .iter()
+            .map(|v| serde_json::json!({"at": [v.at.x, v.at.y], "deposit": v.deposit, "material": v.material}))
+            .collect();
+        let doc = serde_json::json!({"layer": l.index, "pattern": l.pattern.name(), "vertices": vertices});
+        write(
+            &out.join(format!("layer-{}.json", l.index)),
+            doc.to_string().as_bytes(),
+        )?;
         write(
             &out.join(format!("layer-{}.svg", l.index)),
             preview::layer_svg(slice, &l.path).as_bytes(),
