@@ -21,5 +21,27 @@ fn plan_reference_slices(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, plan_reference_slices);
+fn layers_of_reference_slices(c: &mut Criterion) {
+    use hollowpath::toolpath::spiral::ControlFunction;
+    use host_sim::layers::{layer, Fill};
+    let mut group = c.benchmark_group("layer");
+    group.sample_size(20);
+    for (name, text) in REFERENCE_SLICES {
+        let slice = slice_file::parse(text).unwrap().slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        for (what, index) in [("zigzag", 0), ("spiral", 1)] {
+            group.bench_function(format!("{name}/{what}"), |b| {
+                b.iter(|| {
+                    let l =
+                        layer(&slice, plan, Fill::Mcl(ControlFunction::RoadWidth), index).unwrap();
+                    black_box(l.path.len())
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, plan_reference_slices, layers_of_reference_slices);
 criterion_main!(benches);
