@@ -15,7 +15,7 @@ use tiny_skia::{
 };
 
 use crate::metrics::road_runs;
-use crate::render::colour;
+use crate::render::{colour, svg_path};
 
 /// Blank border around the wall's bounding box, mm.
 pub const MARGIN_MM: f32 = 1.0;
@@ -44,23 +44,6 @@ fn frame(slice: &Slice) -> (f32, f32, f32, f32) {
         hi.x - lo.x + 2.0 * MARGIN_MM,
         hi.y - lo.y + 2.0 * MARGIN_MM,
     )
-}
-
-fn svg_path(pts: &[Point], close: bool) -> String {
-    let mut s = String::new();
-    for (k, p) in pts.iter().enumerate() {
-        let _ = write!(
-            s,
-            "{}{:.4},{:.4} ",
-            if k == 0 { "M" } else { "L" },
-            p.x,
-            -p.y
-        );
-    }
-    if close {
-        s.push('Z');
-    }
-    s.trim_end().to_string()
 }
 
 /// The layer as SVG: one `<path class="road">` per road (a maximal run of depositing moves),

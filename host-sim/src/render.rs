@@ -30,7 +30,8 @@ pub fn colour(m: &Material) -> String {
     )
 }
 
-fn path(pts: &[Point], close: bool) -> String {
+/// An SVG path `d` attribute for `pts` (y flipped: SVG's y points down).
+pub fn svg_path(pts: &[Point], close: bool) -> String {
     let mut s = String::new();
     for (k, p) in pts.iter().enumerate() {
         let _ = write!(
@@ -44,7 +45,7 @@ fn path(pts: &[Point], close: bool) -> String {
     if close {
         s.push('Z');
     }
-    s
+    s.trim_end().to_string()
 }
 
 /// The MCL picture (`mcls.svg`).
@@ -88,14 +89,14 @@ pub fn mcls_svg(slice: &Slice, plan: &Plan) -> String {
     let _ = writeln!(
         s,
         r#"<path d="{}" fill="none" stroke="{}" stroke-width="0.12"/>"#,
-        path(slice.wall().points(), true),
+        svg_path(slice.wall().points(), true),
         colour(&slice.wall().material())
     );
     for h in slice.holes() {
         let _ = writeln!(
             s,
             r##"<path d="{}" fill="#eeeeee" stroke="{}" stroke-width="0.12"/>"##,
-            path(h.points(), true),
+            svg_path(h.points(), true),
             colour(&h.material())
         );
     }
@@ -103,14 +104,14 @@ pub fn mcls_svg(slice: &Slice, plan: &Plan) -> String {
         let _ = writeln!(
             s,
             r##"<path d="{}" fill="none" stroke="#555555" stroke-width="0.06" stroke-dasharray="0.3,0.2"/>"##,
-            path(&b.points, false)
+            svg_path(&b.points, false)
         );
     }
     for (k, mcl) in plan.mcls.iter().enumerate() {
         let _ = writeln!(
             s,
             r#"<path d="{}" fill="none" stroke="url(#g{k})" stroke-width="{:.3}" stroke-linecap="round"/>"#,
-            path(&plan.points(mcl), false),
+            svg_path(&plan.points(mcl), false),
             0.25 * w
         );
     }

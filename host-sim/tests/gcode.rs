@@ -1,32 +1,14 @@
 //! G-code: hand-built layers written for Marlin and read back.
 
+mod common;
+
+use common::{two_holes, v, A, B};
 use std::f64::consts::PI;
 
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::{Pattern, Vertex};
-use hollowpath::{Material, Slice};
+use hollowpath::Material;
 use host_sim::gcode::{export, filament_for, parse};
-use host_sim::{slice_file, REFERENCE_SLICES};
-
-const A: Material = [1.0, 0.0, 0.0, 0.0];
-const B: Material = [0.0, 1.0, 0.0, 0.0];
-
-fn two_holes() -> Slice {
-    let text = REFERENCE_SLICES
-        .iter()
-        .find(|(n, _)| *n == "two_holes")
-        .unwrap()
-        .1;
-    slice_file::parse(text).unwrap().slice
-}
-
-fn v(x: f32, y: f32, material: Material, deposit: bool) -> Vertex {
-    Vertex {
-        at: Point::new(x, y),
-        material,
-        deposit,
-    }
-}
 
 fn mix(t: f32) -> Material {
     [1.0 - t, t, 0.0, 0.0]

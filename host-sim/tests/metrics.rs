@@ -2,27 +2,16 @@
 //! their overlaps, and polygons clipped to a road's band, computed here independently of the
 //! raster).
 
+mod common;
+
+use common::{two_holes, A, B, C};
 use std::f64::consts::PI;
 
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::composition::blend;
 use hollowpath::toolpath::{Pattern, Vertex};
-use hollowpath::{Material, Slice};
+use hollowpath::Material;
 use host_sim::metrics::{half_l1, measure, measure_with, road_runs, Meter, Options, Revisit};
-use host_sim::{slice_file, REFERENCE_SLICES};
-
-const A: Material = [1.0, 0.0, 0.0, 0.0];
-const B: Material = [0.0, 1.0, 0.0, 0.0];
-const C: Material = [0.0, 0.0, 1.0, 0.0];
-
-fn two_holes() -> Slice {
-    let text = REFERENCE_SLICES
-        .iter()
-        .find(|(n, _)| *n == "two_holes")
-        .unwrap()
-        .1;
-    slice_file::parse(text).unwrap().slice
-}
 
 fn p(x: f64, y: f64) -> Point {
     Point::new(x as f32, y as f32)

@@ -1,35 +1,16 @@
 //! Layer pictures: the PNG decodes to the right size with roads where they were drawn, and the
 //! SVG has one path per road.
 
+mod common;
+
+use common::{two_holes, v, A, B, C};
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::composition::blend;
 use hollowpath::toolpath::Vertex;
-use hollowpath::{Material, Slice};
+use hollowpath::Slice;
 use host_sim::preview::{layer_png, layer_svg, png_size, MARGIN_MM};
 use host_sim::render::colour;
-use host_sim::{slice_file, REFERENCE_SLICES};
 use tiny_skia::Pixmap;
-
-const A: Material = [1.0, 0.0, 0.0, 0.0];
-const B: Material = [0.0, 1.0, 0.0, 0.0];
-const C: Material = [0.0, 0.0, 1.0, 0.0];
-
-fn two_holes() -> Slice {
-    let text = REFERENCE_SLICES
-        .iter()
-        .find(|(n, _)| *n == "two_holes")
-        .unwrap()
-        .1;
-    slice_file::parse(text).unwrap().slice
-}
-
-fn v(x: f32, y: f32, material: Material, deposit: bool) -> Vertex {
-    Vertex {
-        at: Point::new(x, y),
-        material,
-        deposit,
-    }
-}
 
 /// Three roads: one in C, a gradient from A to B, an L in A; travel between them.
 fn path() -> Vec<Vertex> {
