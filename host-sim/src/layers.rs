@@ -41,8 +41,15 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
             (
                 Pattern::Zigzag,
                 format!(
-                    "zigzag: {} piece(s) after splicing {} loops, {} MCLs left out for parity",
-                    s.pieces, s.splices, s.dropped
+                    "zigzag: {} piece(s) after splicing {} loops, {} MCLs left out for parity{}",
+                    s.pieces,
+                    s.splices,
+                    s.dropped,
+                    if s.pieces > 1 {
+                        "; the other pieces start after a jump: more than two keep-out curves hold an odd number of MCL ends and no MCL joins two of them, or loops lie apart"
+                    } else {
+                        ""
+                    }
                 ),
             )
         }

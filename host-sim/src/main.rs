@@ -213,8 +213,13 @@ fn run(
             &preview::layer_png(slice, &b.path, 20.0),
         )?;
     }
-    let layer_json: Vec<&LayerMetrics> =
-        measured.iter().take(built.len()).map(|(_, m)| m).collect();
+    // Each layer's figures, with how its generator fared (where a jump was needed, and why).
+    let mut layer_json = Vec::new();
+    for (note, m) in measured.iter().take(built.len()) {
+        let mut v = serde_json::to_value(m).map_err(|e| e.to_string())?;
+        v["note"] = serde_json::Value::String(note.clone());
+        layer_json.push(v);
+    }
     let mut doc = serde_json::json!({ "slice": name, "layers": layer_json });
     if baseline.is_some() {
         doc["baseline"] =

@@ -108,6 +108,10 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
             assert!(l[key].is_number(), "{key} missing in {l}");
         }
         assert_eq!(l["starts"], 1);
+        assert!(
+            l["note"].as_str().unwrap().contains("0 jump")
+                || l["note"].as_str().unwrap().contains("1 piece")
+        );
     }
     let text = std::fs::read_to_string(&g).unwrap();
     assert!(text.contains("; filament_diameter = 1.75") && text.contains("; road_width = 0.4"));
