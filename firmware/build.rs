@@ -63,7 +63,20 @@ fn main() {
         holes.join(", ")
     )
     .unwrap();
-    let w = v["settings"]["road_width"].as_f64().unwrap();
-    writeln!(s, "pub const ROAD_WIDTH: f32 = {w:?}f32;").unwrap();
+    writeln!(
+        s,
+        "pub const ROAD_WIDTH: f32 = {};",
+        f32_bits(&v["settings"]["road_width"])
+    )
+    .unwrap();
     std::fs::write(out.join("slice_data.rs"), s).unwrap();
+}
+
+/// A JSON number as the host reads it (decimal -> f64 -> f32), written as exact bits so the
+/// firmware's constant is the same f32, not a second rounding of the decimal.
+fn f32_bits(v: &serde_json::Value) -> String {
+    format!(
+        "f32::from_bits(0x{:08x})",
+        (v.as_f64().unwrap() as f32).to_bits()
+    )
 }

@@ -64,6 +64,23 @@ pub(crate) fn away_from_hole(slice: &Slice, i: usize, p: Point) -> (Point, f32) 
     (near.gradient(p), near.distance)
 }
 
+/// `p` moved onto the bisector `d_a = d_b` of holes `a` and `b` by Newton steps along the
+/// gradient of `d_a - d_b` (the stored polylines are simplified; points placed on them are
+/// pulled back onto the exact bisector).
+pub(crate) fn onto_bisector(slice: &Slice, a: usize, b: usize, mut p: Point) -> Point {
+    for _ in 0..4 {
+        let (na, da) = away_from_hole(slice, a, p);
+        let (nb, db) = away_from_hole(slice, b, p);
+        let gr = na - nb;
+        let g2 = gr.norm2();
+        if g2 < 1e-8 || libm::fabsf(da - db) < 1e-6 {
+            break;
+        }
+        p = p - gr * ((da - db) / g2);
+    }
+    p
+}
+
 /// Finds where `f` changes sign between `p` (`f(p) > 0`) and `q` (`f(q) <= 0`).
 pub(crate) fn bisect(p: Point, q: Point, mut f: impl FnMut(Point) -> f32) -> Point {
     let (mut lo, mut hi) = (0.0f32, 1.0f32);
@@ -268,6 +285,11 @@ fn march(
             return Ok(true);
         }
         if n > 3 && q.dist(start) < 0.5 * step {
+            return Ok(false);
+        }
+        // No progress: the distances have no usable gradient here (the trace sits where the
+        // bisector ends in a degenerate point); end the bisector.
+        if q.dist(p) < 0.25 * step {
             return Ok(false);
         }
         push_point(out, q)?;

@@ -19,6 +19,10 @@ pub const CHANNELS: usize = 4;
 pub const MAX_COORD_MM: f32 = 1000.0;
 /// Largest road width accepted, in millimetres.
 pub const MAX_ROAD_WIDTH_MM: f32 = 10.0;
+/// Smallest road width accepted, in millimetres (finer than any extrusion nozzle).
+pub const MIN_ROAD_WIDTH_MM: f32 = 0.01;
+/// Most relaxation sweeps a slice may ask for.
+pub const MAX_RELAX_ITERATIONS: u8 = 64;
 
 /// Nodes of the grid that carries the cell labels and the harmonic field.
 pub const GRID_NODES: usize = 16_384;
@@ -48,7 +52,7 @@ pub const BISECTOR_SEEDS: usize = 2_048;
 /// Most MCL halves (feature to cell boundary) traced in one slice.
 pub const MAX_HALVES: usize = 640;
 /// Most points of one traced half after simplification.
-pub const HALF_POINTS: usize = 16;
+pub const HALF_POINTS: usize = 24;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.

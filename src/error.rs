@@ -45,6 +45,8 @@ pub enum SettingId {
     MclSpacing,
     /// `relax_spacing`
     RelaxSpacing,
+    /// `relax_iterations`
+    RelaxIterations,
 }
 
 impl SettingId {
@@ -58,6 +60,7 @@ impl SettingId {
             SettingId::Delta => "delta",
             SettingId::MclSpacing => "mcl_spacing",
             SettingId::RelaxSpacing => "relax_spacing",
+            SettingId::RelaxIterations => "relax_iterations",
         }
     }
 }
@@ -86,6 +89,8 @@ pub enum Limit {
     Halves,
     /// [`TRACE_POINTS`](crate::config::TRACE_POINTS)
     TracePoints,
+    /// [`HALF_POINTS`](crate::config::HALF_POINTS)
+    HalfPoints,
     /// [`MAX_MCLS`](crate::config::MAX_MCLS)
     Mcls,
     /// [`PATH_VERTICES`](crate::config::PATH_VERTICES): the capacity of the sink a layer is
@@ -108,6 +113,7 @@ impl Limit {
             Limit::BisectorSeeds => BISECTOR_SEEDS,
             Limit::Halves => MAX_HALVES,
             Limit::TracePoints => TRACE_POINTS,
+            Limit::HalfPoints => HALF_POINTS,
             Limit::Mcls => MAX_MCLS,
             Limit::PathVertices => PATH_VERTICES,
         }
@@ -125,6 +131,7 @@ impl Limit {
             Limit::BisectorSeeds => "bisector seeds",
             Limit::Halves => "traced MCL halves",
             Limit::TracePoints => "points in one traced MCL",
+            Limit::HalfPoints => "points in one simplified MCL half",
             Limit::Mcls => "material changing lines",
             Limit::PathVertices => "vertices in one layer's path",
         }
@@ -233,6 +240,12 @@ pub enum Error {
     },
     /// The slice has no hollow feature: there is nothing to decompose into cells.
     NoHoles,
+    /// No material changing line fits between a hollow feature and its cell boundary (the
+    /// printable region around it is too thin for a road, or every line was removed).
+    NoRoom {
+        /// The hollow feature.
+        hole: u8,
+    },
     /// A fixed capacity was exceeded.
     Capacity {
         /// Which capacity.
@@ -285,6 +298,10 @@ impl fmt::Display for Error {
                 write!(f, "setting {}: {value} is out of range", setting.key())
             }
             Error::NoHoles => f.write_str("the slice has no hollow feature to plan around"),
+            Error::NoRoom { hole } => write!(
+                f,
+                "hole {hole}: no material changing line fits between it and its cell boundary (too little room for a road)"
+            ),
             Error::Capacity { limit, feature } => {
                 if let Some(feature) = feature {
                     write!(f, "{feature}: ")?;

@@ -23,6 +23,7 @@ pub enum Side {
 /// A feature's keep-out curve.
 pub struct KeepOut<'a> {
     feature: &'a Feature,
+    side: Side,
     normals: [Point; MAX_VERTICES],
     /// Arc length of the polygon up to each vertex.
     at_vertex: [f32; MAX_VERTICES],
@@ -54,6 +55,7 @@ impl<'a> KeepOut<'a> {
         }
         KeepOut {
             feature,
+            side,
             normals,
             at_vertex,
             length: polygon::perimeter(pts),
@@ -99,17 +101,23 @@ impl<'a> KeepOut<'a> {
         (a.lerp(b, t), nrm)
     }
 
-    /// The keep-out curve's point at `s`.
+    /// The keep-out curve's point at `s`: offset along the interpolated normal, then pulled
+    /// to exactly half a road width on the region's side where another edge is nearer (a
+    /// concave stretch of a hole, a sharp corner of the wall).
     pub fn at(&self, s: f32) -> Point {
         let (q, normal) = self.base(s);
         let mut p = q + normal * self.half;
-        for _ in 0..3 {
+        for _ in 0..8 {
             let near = self.feature.nearest(p);
-            let d = libm::fabsf(near.distance);
-            if d >= self.half - 1e-5 {
+            // Signed so that positive is on the region's side.
+            let (clearance, away) = match self.side {
+                Side::Outside => (near.distance, near.gradient(p)),
+                Side::Inside => (-near.distance, -near.gradient(p)),
+            };
+            if clearance >= self.half - 1e-5 {
                 break;
             }
-            p = near.point + (p - near.point).normalized() * self.half;
+            p = near.point + away * self.half;
         }
         p
     }

@@ -40,6 +40,9 @@ pub struct PlanStats {
     pub relax_moves: u32,
     /// Ends removed because they still crowded after relaxation.
     pub thinned: u32,
+    /// MCLs removed by the final check: a segment leaving the printable region or crossing
+    /// another MCL after matching and relaxation reshaped it.
+    pub removed_invalid: u32,
 }
 
 /// A finished plan: the MCLs, the bisectors and the branch points.
@@ -160,6 +163,7 @@ impl Planner {
                     removed_unmatched: 0,
                     relax_moves: 0,
                     thinned: 0,
+                    removed_invalid: 0,
                 },
             },
         }
@@ -211,6 +215,7 @@ impl Planner {
         )?;
         matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
         relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
+        sanitize(slice, &mut plan.halves, &mut plan.stats);
         // Compact the halves (remapping partners), then list the MCLs.
         let mut remap: Vec<u16, MAX_HALVES> = Vec::new();
         let mut next = 0u16;
@@ -249,7 +254,60 @@ impl Planner {
                 feature: None,
             })?;
         }
+        for i in 0..slice.holes().len() {
+            if !plan.halves.iter().any(|h| h.hole as usize == i) {
+                return Err(Error::NoRoom { hole: i as u8 });
+            }
+        }
         debug!("mcls: {}", plan.mcls.len());
         Ok(())
+    }
+}
+
+/// The final check on the halves: a half (with its partner) is removed if, after matching and
+/// relaxation dragged it, a segment leaves the printable region or it crosses another half of
+/// its cell. Whatever survives has the properties [`verify`](crate::verify::verify) checks.
+fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
+    use crate::geometry::polyline;
+    let half_width = 0.5 * slice.settings().road_width;
+    let remove = |halves: &mut [Half], k: usize, stats: &mut PlanStats| {
+        halves[k].alive = false;
+        if let Some(p) = halves[k].partner {
+            halves[p as usize].alive = false;
+        }
+        stats.removed_invalid += 1;
+    };
+    for k in 0..halves.len() {
+        if !halves[k].alive {
+            continue;
+        }
+        let inside = halves[k].points.windows(2).all(|w| {
+            let n = libm::ceilf(w[0].dist(w[1]) / (0.25 * half_width)).max(1.0) as usize;
+            (0..=n).all(|t| slice.is_printable(w[0].lerp(w[1], t as f32 / n as f32), 1e-3))
+        });
+        if !inside {
+            remove(halves, k, stats);
+        }
+    }
+    for a in 0..halves.len() {
+        for b in (a + 1)..halves.len() {
+            let (ha, hb) = (&halves[a], &halves[b]);
+            if !ha.alive || !hb.alive || ha.partner == Some(b as u16) {
+                continue;
+            }
+            let related = ha.hole == hb.hole
+                || ha.end == HalfEnd::Bisector(hb.hole)
+                || hb.end == HalfEnd::Bisector(ha.hole);
+            if related
+                && polyline::boxes_overlap(
+                    polyline::bbox(&ha.points),
+                    polyline::bbox(&hb.points),
+                    1e-4,
+                )
+                && polyline::polylines_cross(&ha.points, &hb.points)
+            {
+                remove(halves, b, stats);
+            }
+        }
     }
 }

@@ -222,7 +222,7 @@ fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settings {
-    /// `road_width`: deposited road width, mm (default 0.4).
+    /// `road_width`: deposited road width, mm (default 0.4; 0.01 to 10).
     pub road_width: f32,
     /// `layer_height`: layer height, mm (default 0.3).
     pub layer_height: f32,
@@ -235,8 +235,8 @@ pub struct Settings {
     /// `mcl_spacing`: spacing of MCLs along a feature, mm (default 1 road width); denser where
     /// they diverge, so that neighbouring roads leave no gap wider than a road.
     pub mcl_spacing: f32,
-    /// `relax_iterations`: relaxation sweeps near branch points (default 8); 0 skips the
-    /// smoothing, the final spacing guarantee still holds.
+    /// `relax_iterations`: relaxation sweeps near branch points (default 8, at most 64); 0
+    /// skips the smoothing, the final spacing guarantee still holds.
     pub relax_iterations: u8,
     /// `relax_spacing`: the least distance between MCL ends on the cell boundary after
     /// relaxation, mm (default 1 road width).
@@ -263,7 +263,8 @@ impl Settings {
             (
                 SettingId::RoadWidth,
                 self.road_width,
-                self.road_width > 0.0 && self.road_width <= config::MAX_ROAD_WIDTH_MM,
+                self.road_width >= config::MIN_ROAD_WIDTH_MM
+                    && self.road_width <= config::MAX_ROAD_WIDTH_MM,
             ),
             (
                 SettingId::LayerHeight,
@@ -297,6 +298,12 @@ impl Settings {
                 self.relax_spacing > 0.0 && self.relax_spacing <= 4.0 * self.road_width,
             ),
         ];
+        if self.relax_iterations > config::MAX_RELAX_ITERATIONS {
+            return Err(Error::InvalidSetting {
+                setting: SettingId::RelaxIterations,
+                value: self.relax_iterations as f32,
+            });
+        }
         for (setting, value, ok) in checks {
             // `ok` is false for NaN as every comparison is.
             if !ok {

@@ -59,6 +59,11 @@ pub enum Violation {
         /// The half.
         half: u16,
     },
+    /// A hollow feature has no MCL: its material would never be deposited.
+    HoleWithoutMcl {
+        /// The hollow feature.
+        hole: u8,
+    },
 }
 
 /// Tolerance of "on a curve", mm.
@@ -92,10 +97,12 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     return Err(Violation::EndOffBoundary { mcl: id });
                 }
                 let p = m.joint;
+                // On (near: the stored polyline is simplified) a piece of their bisector, and
+                // exactly equidistant.
                 let on_piece = plan
                     .cells
                     .between(m.from as usize, j as usize)
-                    .any(|(_, b)| polyline::project(&b.points, p).2 < ON_CURVE_TOL);
+                    .any(|(_, b)| polyline::project(&b.points, p).2 < 0.05 * settings.road_width);
                 let equidistant = libm::fabsf(hole_d(m.from as usize, p) - hole_d(j as usize, p))
                     < 10.0 * ON_CURVE_TOL;
                 if !on_piece || !equidistant || !pts.contains(&p) {
@@ -126,6 +133,12 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     feature: FeatureId::Wall,
                 });
             }
+        }
+    }
+    for i in 0..slice.holes().len() {
+        let touches = |m: &crate::Mcl| m.from as usize == i || m.to == Target::Hole(i as u8);
+        if !plan.mcls.iter().any(touches) {
+            return Err(Violation::HoleWithoutMcl { hole: i as u8 });
         }
     }
     for (h, &n) in uses.iter().enumerate().take(plan.halves.len()) {

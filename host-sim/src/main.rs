@@ -141,6 +141,8 @@ fn run(
     let slice = &file.slice;
     let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
     let plan = planner.last_plan();
+    hollowpath::verify::verify(slice, plan)
+        .map_err(|v| format!("the plan failed its own check ({v:?}); please report this slice"))?;
     let built =
         layers::layers(slice, plan, fill, count).map_err(|e| format!("layers failed: {e}"))?;
     let baseline = if with_baseline {
@@ -177,7 +179,13 @@ fn run(
 
     let field = BlendedField::new(slice, plan);
     let field_fn = |p| field.at(p);
-    let mut meter = Meter::new(slice, Options::default());
+    // The deposition raster is 0.025 mm, coarser only where the slice would need more than
+    // 20 million cells; previews are 20 px/mm up to 16 megapixels.
+    let (lo, hi) = slice.wall().bbox();
+    let area = ((hi.x - lo.x + 2.0) * (hi.y - lo.y + 2.0)) as f64;
+    let cell = (host_sim::metrics::CELL_MM as f64).max((area / 2.0e7).sqrt()) as f32;
+    let px_per_mm = 20.0f32.min((16.0e6 / area).sqrt() as f32);
+    let mut meter = Meter::new(slice, Options::with_cell(cell));
     let mut measured: Vec<(String, LayerMetrics)> = Vec::new();
     for l in built.iter().chain(baseline.iter()) {
         let m = meter.measure(l.pattern, &l.path, &field_fn);
@@ -200,7 +208,7 @@ fn run(
         )?;
         write(
             &out.join(format!("layer-{}.png", l.index)),
-            &preview::layer_png(slice, &l.path, 20.0),
+            &preview::layer_png(slice, &l.path, px_per_mm),
         )?;
     }
     if let Some(b) = &baseline {
@@ -210,7 +218,7 @@ fn run(
         )?;
         write(
             &out.join("baseline.png"),
-            &preview::layer_png(slice, &b.path, 20.0),
+            &preview::layer_png(slice, &b.path, px_per_mm),
         )?;
     }
     // Each layer's figures, with how its generator fared (where a jump was needed, and why).

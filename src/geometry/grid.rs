@@ -23,14 +23,19 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The grid with spacing at least `h_min` covering the box `lo..hi` with one spare node all
-    /// round and at most `max_nodes` nodes, centred on the box.
+    /// The grid with spacing at least `h_min` (> 0) covering the box `lo..hi` with one spare
+    /// node all round and at most `max_nodes` nodes, centred on the box.
     pub fn covering(lo: Point, hi: Point, h_min: f32, max_nodes: usize) -> Grid {
         let (w, ht) = (hi.x - lo.x, hi.y - lo.y);
         let mut h = h_min;
         loop {
-            let nx = libm::ceilf(w / h) as usize + 3;
-            let ny = libm::ceilf(ht / h) as usize + 3;
+            // Counted in f32 first: no integer overflow, the same on 32- and 64-bit targets.
+            let (fx, fy) = (libm::ceilf(w / h) + 3.0, libm::ceilf(ht / h) + 3.0);
+            if fx.is_nan() || fy.is_nan() || fx * fy > max_nodes as f32 {
+                h *= 1.03;
+                continue;
+            }
+            let (nx, ny) = (fx as usize, fy as usize);
             if nx * ny <= max_nodes {
                 let origin = Point::new(
                     (lo.x + hi.x) * 0.5 - (nx - 1) as f32 * h * 0.5,

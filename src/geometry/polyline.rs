@@ -1,6 +1,6 @@
 //! Open polylines given as point slices.
 
-use super::polygon::segments_cross;
+use super::polygon::{orient, segments_cross, segments_meet};
 use super::Point;
 
 /// The closest point of segment `ab` to `p`, and its parameter in [0, 1].
@@ -96,17 +96,46 @@ pub fn simplify<const N: usize>(
     Ok(())
 }
 
-/// Whether two polylines cross. Segments that only touch at a shared end point do not count;
-/// proper crossings and one polyline's vertex lying inside the other's segment do.
+/// Whether two polylines meet anywhere but at a vertex they share exactly: proper crossings,
+/// a vertex of one lying on a segment of the other (a T or a crossing through a vertex) and
+/// overlapping collinear segments all count; two segments that only touch at an end point they
+/// both have (a matched pair's `p*`) do not.
+///
+/// ```
+/// use hollowpath::geometry::{polyline::polylines_cross, Point};
+/// let p = |x, y| Point::new(x, y);
+/// assert!(polylines_cross(&[p(0.0, 0.0), p(2.0, 0.0)], &[p(1.0, -1.0), p(1.0, 1.0)]));
+/// assert!(polylines_cross(&[p(0.0, 0.0), p(2.0, 0.0)], &[p(1.0, 0.0), p(1.0, 1.0)])); // a T
+/// assert!(!polylines_cross(&[p(0.0, 0.0), p(1.0, 0.0)], &[p(1.0, 0.0), p(1.0, 1.0)])); // shared end
+/// ```
 pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
     for a in p.windows(2) {
         for b in q.windows(2) {
             if segments_cross(a[0], a[1], b[0], b[1]) {
                 return true;
             }
+            if segments_meet(a[0], a[1], b[0], b[1]) && !only_shared_end(a[0], a[1], b[0], b[1]) {
+                return true;
+            }
         }
     }
     false
+}
+
+/// Whether segments `ab` and `cd` (which meet) touch only at an end point both have.
+fn only_shared_end(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let shared = if a == c || a == d {
+        Some((a, b, if a == c { d } else { c }))
+    } else if b == c || b == d {
+        Some((b, a, if b == c { d } else { c }))
+    } else {
+        None
+    };
+    match shared {
+        // Touching at the shared end only, unless they run on along the same line.
+        Some((s, x, y)) => orient(s, x, y) != 0.0 || (x - s).dot(y - s) <= 0.0,
+        None => false,
+    }
 }
 
 /// Bounding box of a polyline (min, max).

@@ -165,9 +165,18 @@ fn trace_half(
         return Ok(false);
     };
     let mut points: Vec<Point, HALF_POINTS> = Vec::new();
-    let mut tol = 0.005;
+    // Simplify within 0.5 % of a road width, coarser only up to 10 %: past that the half
+    // would no longer follow its streamline, and the buffer is too small.
+    let w = slice.settings().road_width;
+    let mut tol = 0.005 * w;
     while polyline::simplify(scratch, tol, &mut points).is_err() {
         tol *= 2.0;
+        if tol > 0.1 * w {
+            return Err(Error::Capacity {
+                limit: Limit::HalfPoints,
+                feature: Some(FeatureId::Hole(i as u8)),
+            });
+        }
     }
     let new = Half {
         hole: i as u8,

@@ -19,7 +19,7 @@
 
 use heapless::Vec;
 
-use crate::cells::{away_from_hole, Cells};
+use crate::cells::{away_from_hole, onto_bisector, Cells};
 use crate::config::{MAX_HALVES, MCL_POINTS};
 use crate::geometry::{polyline, Point};
 use crate::mcl::{Half, HalfEnd};
@@ -171,7 +171,12 @@ pub fn match_all(
                 if !keeps_order {
                     continue;
                 }
-                let pstar = polyline::point_at(&bis.points, ustar);
+                let pstar = onto_bisector(
+                    slice,
+                    bis.a as usize,
+                    bis.b as usize,
+                    polyline::point_at(&bis.points, ustar),
+                );
                 if try_join(halves, me.half as usize, other.half as usize, pstar) {
                     chosen = Some(c);
                     let _ = matches.push(Match { ua, ub, ustar });

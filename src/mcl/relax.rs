@@ -11,7 +11,7 @@
 
 use heapless::Vec;
 
-use crate::cells::Cells;
+use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
 use crate::geometry::{polygon, polyline, Point};
 use crate::mcl::insert::sorted_halves;
@@ -159,11 +159,18 @@ fn try_move(
     let hole = halves[e].hole as usize;
     let (target, new_u) = match (halves[e].partner, halves[e].on_bisector) {
         (Some(_), Some((k, u))) => {
-            let bis = &cells.bisectors[k as usize].points;
+            let piece = &cells.bisectors[k as usize];
+            let bis = &piece.points;
             let t = polyline::tangent_at(bis, u);
             let len = polyline::length(bis);
             let nu = (u + push.dot(t)).clamp(0.0, len);
-            (polyline::point_at(bis, nu), Some((k, nu)))
+            let on = onto_bisector(
+                slice,
+                piece.a as usize,
+                piece.b as usize,
+                polyline::point_at(bis, nu),
+            );
+            (on, Some((k, nu)))
         }
         _ => {
             let wall = slice.wall().points();

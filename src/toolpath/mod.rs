@@ -96,17 +96,20 @@ pub(crate) fn emit(sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
     })
 }
 
-/// Appends `v` to `sink` as [`emit`] does, first bending a depositing move into the printable
-/// region where its straight chord would cut into a keep-out band (the sagitta of a chord
-/// across a convex feature or along a convex wall): midpoints that fall short are pushed out to
-/// exactly half a road width, recursively, with the composition blended along the move.
+/// Appends `v` to `sink` as [`emit`] does, keeping a depositing move in the printable region:
+/// where its straight chord would cut into a keep-out band (the sagitta of a chord across a
+/// convex feature, or a chord across a whole feature) the move is bent, point by point pushed
+/// out to exactly half a road width, with the composition blended along the move; a piece that
+/// still cannot be deposited inside the region is travelled instead, so nothing is ever
+/// deposited inside a hollow feature or outside the wall.
 pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
-    if let (Some(prev), true) = (sink.last_vertex(), v.deposit) {
-        bend(slice, sink, prev, v, 6)?;
+    match (sink.last_vertex(), v.deposit) {
+        (Some(prev), true) => bend(slice, sink, prev, v, 8),
+        _ => emit(sink, v),
     }
-    emit(sink, v)
 }
 
+/// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says.
 fn bend(
     slice: &Slice,
     sink: &mut impl PathSink,
@@ -115,33 +118,65 @@ fn bend(
     depth: u8,
 ) -> Result<(), Error> {
     let half = 0.5 * slice.settings().road_width;
-    if depth == 0 || a.at.dist(b.at) < 0.02 * half {
-        return Ok(());
-    }
-    // Where the chord comes nearest a feature: two segments are nearest at an end of one of
-    // them, and the chord's ends are in the region, so it is nearest at a feature's vertex.
-    let Some((t, c)) = deepest_dip(slice, a.at, b.at, half) else {
-        return Ok(());
+    let crossing = crosses_feature(slice, a.at, b.at);
+    let dip = if crossing {
+        None
+    } else {
+        deepest_dip(slice, a.at, b.at, half - 1e-4)
     };
-    let (pushed, onto) = into_region(slice, c, half);
-    if pushed.dist(c) < 1e-6 {
-        return Ok(());
+    if !crossing && dip.is_none() {
+        return emit(sink, b);
     }
-    let worst = (0.0f32, t, pushed, onto);
+    if depth == 0 || a.at.dist(b.at) < 0.02 * half {
+        return emit(
+            sink,
+            Vertex {
+                deposit: false,
+                ..b
+            },
+        );
+    }
+    let (t, c) = dip.unwrap_or((0.5, a.at.lerp(b.at, 0.5)));
+    let (pushed, onto) = into_region(slice, c, half);
     // A point put on a feature's keep-out curve deposits at that feature: its material.
-    let material = match worst.3 {
+    let material = match onto {
         Some(FeatureId::Hole(i)) => slice.holes()[i as usize].material(),
         Some(FeatureId::Wall) => slice.wall().material(),
-        None => composition::blend(&a.material, &b.material, worst.1),
+        None => composition::blend(&a.material, &b.material, t),
     };
     let mid = Vertex {
-        at: worst.2,
+        at: pushed,
         material,
         deposit: true,
     };
+    if pushed.dist(a.at) < 1e-6 || pushed.dist(b.at) < 1e-6 || !slice.is_printable(pushed, 1e-4) {
+        return emit(
+            sink,
+            Vertex {
+                deposit: false,
+                ..b
+            },
+        );
+    }
     bend(slice, sink, a, mid, depth - 1)?;
-    emit(sink, mid)?;
-    bend(slice, sink, mid, b, depth - 1)
+    let mid_emitted = sink.last_vertex().unwrap_or(mid);
+    bend(slice, sink, mid_emitted, b, depth - 1)
+}
+
+/// Whether segment `ab` crosses or touches the boundary of a hole or of the wall.
+fn crosses_feature(slice: &Slice, a: Point, b: Point) -> bool {
+    let meets = |pts: &[Point]| {
+        let n = pts.len();
+        (0..n).any(|k| crate::geometry::polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
+    };
+    let (lo, hi) = (
+        Point::new(a.x.min(b.x), a.y.min(b.y)),
+        Point::new(a.x.max(b.x), a.y.max(b.y)),
+    );
+    slice.holes().iter().any(|h| {
+        let bb = h.bbox();
+        bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y && meets(h.points())
+    }) || meets(slice.wall().points())
 }
 
 /// The point of segment `ab` that dips deepest into a keep-out band, with its parameter; `None`

@@ -8,7 +8,7 @@ use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::BlendedField;
 use crate::toolpath::{emit_move, PathSink, Vertex};
-use crate::{Error, Plan, Slice};
+use crate::{Error, Limit, Plan, Slice};
 
 /// Longest deposited piece between two vertices, mm (so composition can change along it).
 const MAX_PIECE: f32 = 1.0;
@@ -59,7 +59,13 @@ pub fn raster(
         d0 = d0.min(c.dot(dir));
         d1 = d1.max(c.dot(dir));
     }
-    let lines = (libm::floorf((a1 - a0) / w) as usize).min(MAX_LINES);
+    let lines = libm::floorf((a1 - a0) / w) as usize;
+    if lines > MAX_LINES {
+        return Err(Error::Capacity {
+            limit: Limit::PathVertices,
+            feature: None,
+        });
+    }
     let step = 0.25 * w;
     let samples = libm::ceilf((d1 - d0) / step) as usize + 1;
     // Runs of every line, as (line, start, end) along `dir`.
@@ -82,8 +88,14 @@ pub fn raster(
                 }
                 (Some(s), false) => {
                     let e = refine(&inside, &at, t, t - step);
-                    if e - s > 0.5 * w && count < MAX_RUNS && runs.push((l as u16, s, e)).is_ok() {
+                    if e - s > 0.5 * w {
                         count += 1;
+                        if count > MAX_RUNS || runs.push((l as u16, s, e)).is_err() {
+                            return Err(Error::Capacity {
+                                limit: Limit::PathVertices,
+                                feature: None,
+                            });
+                        }
                     }
                     start = None;
                 }
