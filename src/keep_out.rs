@@ -108,18 +108,43 @@ impl<'a> KeepOut<'a> {
         let (q, normal) = self.base(s);
         let mut p = q + normal * self.half;
         for _ in 0..8 {
-            let near = self.feature.nearest(p);
-            // Signed so that positive is on the region's side.
-            let (clearance, away) = match self.side {
-                Side::Outside => (near.distance, near.gradient(p)),
-                Side::Inside => (-near.distance, -near.gradient(p)),
-            };
+            let (clearance, away, near) = self.clearance(p);
             if clearance >= self.half - 1e-5 {
-                break;
+                return p;
             }
-            p = near.point + away * self.half;
+            p = near + away * self.half;
         }
-        p
+        if self.clearance(p).0 >= self.half - 1e-5 {
+            return p;
+        }
+        // Pulled to and fro between two edges of a sharp corner: go out along the normal
+        // instead, as far as it takes for every edge to be half a road width away (the miter
+        // point of the corner), found by doubling and bisection.
+        let clear = |d: f32| self.clearance(q + normal * d).0 >= self.half - 1e-5;
+        let (mut lo, mut hi) = (self.half, 2.0 * self.half);
+        while !clear(hi) && hi < 64.0 * self.half {
+            lo = hi;
+            hi *= 2.0;
+        }
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            if clear(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        q + normal * hi
+    }
+
+    /// Distance from `p` to the feature on the region's side (positive in the region), the
+    /// unit vector away from the feature into the region, and the nearest feature point.
+    fn clearance(&self, p: Point) -> (f32, Point, Point) {
+        let near = self.feature.nearest(p);
+        match self.side {
+            Side::Outside => (near.distance, near.gradient(p), near.point),
+            Side::Inside => (-near.distance, -near.gradient(p), near.point),
+        }
     }
 
     /// The parameter of the feature point nearest to `p`.

@@ -269,7 +269,6 @@ impl Planner {
 /// its cell. Whatever survives has the properties [`verify`](crate::verify::verify) checks.
 fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
     use crate::geometry::polyline;
-    let half_width = 0.5 * slice.settings().road_width;
     let remove = |halves: &mut [Half], k: usize, stats: &mut PlanStats| {
         halves[k].alive = false;
         if let Some(p) = halves[k].partner {
@@ -281,10 +280,10 @@ fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
         if !halves[k].alive {
             continue;
         }
-        let inside = halves[k].points.windows(2).all(|w| {
-            let n = libm::ceilf(w[0].dist(w[1]) / (0.25 * half_width)).max(1.0) as usize;
-            (0..=n).all(|t| slice.is_printable(w[0].lerp(w[1], t as f32 / n as f32), 1e-3))
-        });
+        let inside = halves[k]
+            .points
+            .windows(2)
+            .all(|w| slice.segment_is_printable(w[0], w[1], 1e-3));
         if !inside {
             remove(halves, k, stats);
         }

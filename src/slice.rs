@@ -469,4 +469,61 @@ impl Slice {
         let half = self.settings.road_width * 0.5 - tol;
         self.wall_clearance(p) >= half && self.nearest_holes(p).1 >= half
     }
+
+    /// Whether segment `ab` crosses or touches the boundary of a hole or of the wall.
+    pub fn segment_crosses_feature(&self, a: Point, b: Point) -> bool {
+        let meets = |pts: &[Point]| {
+            let n = pts.len();
+            (0..n).any(|k| polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
+        };
+        let (lo, hi) = (
+            Point::new(a.x.min(b.x), a.y.min(b.y)),
+            Point::new(a.x.max(b.x), a.y.max(b.y)),
+        );
+        self.holes.iter().any(|h| {
+            let bb = h.bbox;
+            bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y && meets(&h.points)
+        }) || meets(&self.wall.points)
+    }
+
+    /// The point of segment `ab` nearest to a feature where that is closer than `clearance`,
+    /// with its parameter along the segment; `None` if the whole segment keeps `clearance` from
+    /// every feature. For a segment that crosses no feature boundary the nearest approach is
+    /// at a feature's vertex (two segments are nearest at an end of one of them), so only
+    /// vertices are looked at: exact, and cheap.
+    pub fn segment_dip(&self, a: Point, b: Point, clearance: f32) -> Option<(f32, Point)> {
+        let lo = Point::new(a.x.min(b.x) - clearance, a.y.min(b.y) - clearance);
+        let hi = Point::new(a.x.max(b.x) + clearance, a.y.max(b.y) + clearance);
+        let mut best: Option<(f32, f32, Point)> = None;
+        let mut consider = |pts: &[Point]| {
+            for &q in pts {
+                if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
+                    continue;
+                }
+                let (c, t) = polyline::closest_on_segment(a, b, q);
+                let d = c.dist(q);
+                if d < clearance && best.is_none_or(|x| d < x.0) {
+                    best = Some((d, t, c));
+                }
+            }
+        };
+        for h in self.holes.iter() {
+            let bb = h.bbox;
+            if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
+                consider(&h.points);
+            }
+        }
+        consider(&self.wall.points);
+        best.map(|(_, t, c)| (t, c))
+    }
+
+    /// Whether the whole segment `ab` lies in the printable region (within `tol`): both ends
+    /// printable, no feature boundary crossed, no feature nearer than half a road width.
+    pub fn segment_is_printable(&self, a: Point, b: Point, tol: f32) -> bool {
+        let half = 0.5 * self.settings.road_width;
+        self.is_printable(a, tol)
+            && self.is_printable(b, tol)
+            && !self.segment_crosses_feature(a, b)
+            && self.segment_dip(a, b, half - tol).is_none()
+    }
 }

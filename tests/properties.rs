@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{check_layer, feature};
+use common::{check_layer, check_layer_with, feature};
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
@@ -147,6 +147,114 @@ proptest! {
             let s = spiral(&slice, plan, f, &mut *path).map_err(|e| TestCaseError::fail(format!("{e}")))?;
             check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("spiral {f:?}: {e}")))?;
             prop_assert_eq!(common::starts(&path), 1 + s.jumps as usize);
+        }
+    }
+}
+
+/// A coarse polygon for sharp corners: `n` vertices of a blob.
+fn coarse(c: Point, r: f32, n: usize, wobble: f32, phase: f32) -> Vec<Point> {
+    blob(c, r, 1.0, 1.0, wobble, 2.0, phase, n)
+}
+
+#[derive(Debug, Clone)]
+struct Awkward {
+    wall_vertices: usize,
+    wall_r: f32,
+    holes: Vec<(f32, f32, f32, usize, f32)>,
+    clearance: f32,
+    settings: (f32, f32, f32, f32, u8),
+}
+
+fn awkward() -> impl Strategy<Value = Awkward> {
+    (
+        prop_oneof![Just(5usize), Just(9), Just(16), Just(96)],
+        8.0f32..16.0,
+        proptest::collection::vec(
+            (
+                -1.0f32..1.0,
+                -1.0f32..1.0,
+                0.5f32..3.5,
+                prop_oneof![Just(4usize), Just(7), Just(48)],
+                0.0f32..0.35,
+            ),
+            1..7,
+        ),
+        0.05f32..1.0,
+        (0.2f32..0.8, 0.0f32..4.0, 0.0f32..4.0, 0.05f32..3.0, 0u8..16),
+    )
+        .prop_map(
+            |(wall_vertices, wall_r, holes, clearance, settings)| Awkward {
+                wall_vertices,
+                wall_r,
+                holes,
+                clearance,
+                settings,
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Sharp corners, features a hair apart, any settings: either a plan that passes `verify`
+    /// with layers that stay in the printable region, or a typed refusal — never a panic.
+    #[test]
+    fn awkward_slices_plan_correctly_or_are_refused(a in awkward()) {
+        let wall = feature(
+            FeatureId::Wall,
+            &coarse(Point::new(0.0, 0.0), a.wall_r, a.wall_vertices, 0.1, 0.3),
+            [1.0, 0.0, 0.0, 0.0],
+        );
+        let mut placed: Vec<Feature> = Vec::new();
+        for (k, &(x, y, r, n, wob)) in a.holes.iter().enumerate() {
+            let pts = coarse(Point::new(x * 0.6 * a.wall_r, y * 0.6 * a.wall_r), r, n, wob, k as f32);
+            let clear = pts.iter().all(|&p| wall.signed_distance(p) < -a.clearance)
+                && placed.iter().all(|o| {
+                    pts.iter().all(|&p| o.signed_distance(p) > a.clearance)
+                        && o.points().iter().all(|&q| Feature::new(FeatureId::Hole(0), &pts, [0.0, 1.0, 0.0, 0.0]).is_ok_and(|f| f.signed_distance(q) > a.clearance))
+                });
+            if clear {
+                let mut m = [0.0; 4];
+                m[1 + k % 3] = 1.0;
+                if let Ok(f) = Feature::new(FeatureId::Hole(placed.len() as u8), &pts, m) {
+                    placed.push(f);
+                }
+            }
+        }
+        prop_assume!(!placed.is_empty());
+        let (road_width, w_n, w_d, delta, relax_iterations) = a.settings;
+        let settings = Settings {
+            w_n,
+            w_d,
+            delta,
+            relax_iterations,
+            ..Settings::for_road_width(road_width)
+        };
+        let slice = Slice::new(wall, &placed, settings);
+        prop_assume!(slice.is_ok());
+        let slice = slice.unwrap();
+        let mut planner = Box::new(Planner::new());
+        let plan = match planner.plan(&slice) {
+            Ok(plan) => plan,
+            Err(hollowpath::Error::NoRoom { .. } | hollowpath::Error::Capacity { .. }) => return Ok(()),
+            Err(e) => return Err(TestCaseError::fail(format!("unexpected error {e}"))),
+        };
+        if let Err(v) = verify(&slice, plan) {
+            return Err(TestCaseError::fail(format!("{v:?}")));
+        }
+        let mut path: Box<heapless::Vec<Vertex, 32768>> = Box::default();
+        match zigzag(&slice, plan, &mut *path) {
+            Ok(_) => check_layer_with(&slice, &path, false).map_err(|e| TestCaseError::fail(format!("zigzag: {e}")))?,
+            Err(hollowpath::Error::Capacity { .. }) => {}
+            Err(e) => return Err(TestCaseError::fail(format!("zigzag: {e}"))),
+        }
+        for f in [ControlFunction::Linear, ControlFunction::RoadWidth, ControlFunction::Ease] {
+            path.clear();
+            match spiral(&slice, plan, f, &mut *path) {
+                Ok(_) => check_layer_with(&slice, &path, false).map_err(|e| TestCaseError::fail(format!("spiral {f:?}: {e}")))?,
+                Err(hollowpath::Error::Capacity { .. }) => {}
+                Err(e) => return Err(TestCaseError::fail(format!("spiral {f:?}: {e}"))),
+            }
         }
     }
 }

@@ -1,6 +1,6 @@
 //! hollowpath on QEMU's mps2-an386: plans the built-in four-hole slice with the same core the
-//! host runs, checks the plan, and prints its digest and the instructions it took over
-//! semihosting, then exits QEMU with the verdict.
+//! host runs, checks the plan, builds its zigzag and spiral layers, and prints their digests and
+//! the instructions each step took over semihosting, then exits QEMU with the verdict.
 //!
 //! The host test `host-sim/tests/mcu.rs` compares the digest with the host's: the plans must
 //! be bit-identical.
@@ -12,6 +12,9 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
+use hollowpath::toolpath::spiral::{spiral, ControlFunction};
+use hollowpath::toolpath::zigzag::zigzag;
+use hollowpath::toolpath::{digest, Vertex};
 use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
 use static_cell::ConstStaticCell;
 
@@ -22,6 +25,11 @@ mod slice_data {
 
 /// The planner's working memory, in .bss (its initial value is all zeros).
 static PLANNER: ConstStaticCell<Planner> = ConstStaticCell::new(Planner::new());
+
+/// One layer's path at a time.
+static PATH: ConstStaticCell<Path> = ConstStaticCell::new(Path::new());
+
+type Path = hollowpath::heapless::Vec<Vertex, { hollowpath::config::PATH_VERTICES }>;
 
 /// SysTick wraps (each 2^24 ticks).
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -116,13 +124,33 @@ fn main() -> ! {
         t2 - t1,
         t3 - t2
     );
-    match verdict {
-        Ok(()) => {
-            hprintln!("verify ok");
-            debug::exit(debug::EXIT_SUCCESS);
-        }
-        Err(v) => fail("verify", v),
+    if let Err(v) = verdict {
+        fail("verify", v);
     }
+    hprintln!("verify ok");
+
+    // The two layers of the demo: a zigzag and a road-width spiral.
+    let path = PATH.take();
+    let t4 = ticks();
+    zigzag(&slice, plan, path).unwrap_or_else(|e| fail("zigzag", e));
+    let t5 = ticks();
+    hprintln!(
+        "layer 0 vertices {} digest {:016x} ticks {}",
+        path.len(),
+        digest(path),
+        t5 - t4
+    );
+    path.clear();
+    let t6 = ticks();
+    spiral(&slice, plan, ControlFunction::RoadWidth, path).unwrap_or_else(|e| fail("spiral", e));
+    let t7 = ticks();
+    hprintln!(
+        "layer 1 vertices {} digest {:016x} ticks {}",
+        path.len(),
+        digest(path),
+        t7 - t6
+    );
+    debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
     loop {}
 }

@@ -1,6 +1,6 @@
 //! Open polylines given as point slices.
 
-use super::polygon::{orient, segments_cross, segments_meet};
+use super::polygon::{orient, segments_meet};
 use super::Point;
 
 /// The closest point of segment `ab` to `p`, and its parameter in [0, 1].
@@ -110,9 +110,18 @@ pub fn simplify<const N: usize>(
 /// ```
 pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
     for a in p.windows(2) {
+        let (alo, ahi) = (
+            Point::new(a[0].x.min(a[1].x), a[0].y.min(a[1].y)),
+            Point::new(a[0].x.max(a[1].x), a[0].y.max(a[1].y)),
+        );
         for b in q.windows(2) {
-            if segments_cross(a[0], a[1], b[0], b[1]) {
-                return true;
+            // Boxes apart: the segments cannot meet.
+            if b[0].x.max(b[1].x) < alo.x
+                || b[0].x.min(b[1].x) > ahi.x
+                || b[0].y.max(b[1].y) < alo.y
+                || b[0].y.min(b[1].y) > ahi.y
+            {
+                continue;
             }
             if segments_meet(a[0], a[1], b[0], b[1]) && !only_shared_end(a[0], a[1], b[0], b[1]) {
                 return true;

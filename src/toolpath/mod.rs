@@ -77,6 +77,27 @@ impl<const N: usize> PathSink for heapless::Vec<Vertex, N> {
     }
 }
 
+/// A 64-bit FNV-1a digest of a path (positions and compositions as IEEE bits, deposit flags):
+/// equal digests mean bit-identical layers, on the host and on the MCU.
+pub fn digest(path: &[Vertex]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: u32| {
+        for b in x.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for v in path {
+        eat(v.at.x.to_bits());
+        eat(v.at.y.to_bits());
+        for m in v.material {
+            eat(m.to_bits());
+        }
+        eat(v.deposit as u32);
+    }
+    h
+}
+
 #[cfg(feature = "alloc")]
 impl PathSink for alloc::vec::Vec<Vertex> {
     fn push_vertex(&mut self, v: Vertex) -> Result<(), Vertex> {
@@ -104,7 +125,36 @@ pub(crate) fn emit(sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
 /// deposited inside a hollow feature or outside the wall.
 pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
     match (sink.last_vertex(), v.deposit) {
-        (Some(prev), true) => bend(slice, sink, prev, v, 8),
+        (Some(prev), true) => {
+            // Both ends must lie in the region (a keep-out curve can run through another
+            // feature's band where features are closer than a road width).
+            let half = 0.5 * slice.settings().road_width;
+            let mut v = v;
+            if !slice.is_printable(v.at, 1e-4) {
+                let (pushed, _) = into_region(slice, v.at, half);
+                if slice.is_printable(pushed, 1e-4) {
+                    v.at = pushed;
+                } else {
+                    return emit(
+                        sink,
+                        Vertex {
+                            deposit: false,
+                            ..v
+                        },
+                    );
+                }
+            }
+            if !slice.is_printable(prev.at, 1e-4) {
+                return emit(
+                    sink,
+                    Vertex {
+                        deposit: false,
+                        ..v
+                    },
+                );
+            }
+            bend(slice, sink, prev, v, 8)
+        }
         _ => emit(sink, v),
     }
 }
@@ -118,11 +168,11 @@ fn bend(
     depth: u8,
 ) -> Result<(), Error> {
     let half = 0.5 * slice.settings().road_width;
-    let crossing = crosses_feature(slice, a.at, b.at);
+    let crossing = slice.segment_crosses_feature(a.at, b.at);
     let dip = if crossing {
         None
     } else {
-        deepest_dip(slice, a.at, b.at, half - 1e-4)
+        slice.segment_dip(a.at, b.at, half - 1e-4)
     };
     if !crossing && dip.is_none() {
         return emit(sink, b);
@@ -161,50 +211,6 @@ fn bend(
     bend(slice, sink, a, mid, depth - 1)?;
     let mid_emitted = sink.last_vertex().unwrap_or(mid);
     bend(slice, sink, mid_emitted, b, depth - 1)
-}
-
-/// Whether segment `ab` crosses or touches the boundary of a hole or of the wall.
-fn crosses_feature(slice: &Slice, a: Point, b: Point) -> bool {
-    let meets = |pts: &[Point]| {
-        let n = pts.len();
-        (0..n).any(|k| crate::geometry::polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
-    };
-    let (lo, hi) = (
-        Point::new(a.x.min(b.x), a.y.min(b.y)),
-        Point::new(a.x.max(b.x), a.y.max(b.y)),
-    );
-    slice.holes().iter().any(|h| {
-        let bb = h.bbox();
-        bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y && meets(h.points())
-    }) || meets(slice.wall().points())
-}
-
-/// The point of segment `ab` that dips deepest into a keep-out band, with its parameter; `None`
-/// if the segment keeps half a road width from every feature.
-fn deepest_dip(slice: &Slice, a: Point, b: Point, half: f32) -> Option<(f32, Point)> {
-    let lo = Point::new(a.x.min(b.x) - half, a.y.min(b.y) - half);
-    let hi = Point::new(a.x.max(b.x) + half, a.y.max(b.y) + half);
-    let mut best: Option<(f32, f32, Point)> = None;
-    let mut consider = |pts: &[Point]| {
-        for &q in pts {
-            if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
-                continue;
-            }
-            let (c, t) = crate::geometry::polyline::closest_on_segment(a, b, q);
-            let d = c.dist(q);
-            if d < half && best.is_none_or(|x| d < x.0) {
-                best = Some((d, t, c));
-            }
-        }
-    };
-    for h in slice.holes() {
-        let bb = h.bbox();
-        if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
-            consider(h.points());
-        }
-    }
-    consider(slice.wall().points());
-    best.map(|(_, t, c)| (t, c))
 }
 
 /// `p` moved out of any keep-out band onto its edge (half a road width from the feature),

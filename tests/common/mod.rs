@@ -46,6 +46,17 @@ pub fn starts(path: &[Vertex]) -> usize {
 
 /// Checks what every layer must satisfy; returns the first failure.
 pub fn check_layer(slice: &Slice, path: &[Vertex]) -> Result<(), String> {
+    check_layer_with(slice, path, true)
+}
+
+/// [`check_layer`], optionally without the feature-composition check: where features are
+/// closer than a road width an MCL can run along another feature's keep-out curve, carrying
+/// its own blend there.
+pub fn check_layer_with(
+    slice: &Slice,
+    path: &[Vertex],
+    feature_composition: bool,
+) -> Result<(), String> {
     let w = slice.settings().road_width;
     let half = 0.5 * w;
     if path.is_empty() {
@@ -75,7 +86,7 @@ pub fn check_layer(slice: &Slice, path: &[Vertex]) -> Result<(), String> {
                 .zip(h.material())
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f32::max);
-            if (h.signed_distance(v.at) - half).abs() < 1e-4 && off > 1e-2 {
+            if feature_composition && (h.signed_distance(v.at) - half).abs() < 1e-4 && off > 1e-2 {
                 return Err(format!(
                     "vertex {i} on hole {k}: {:?} is not {:?}",
                     v.material,

@@ -1,0 +1,85 @@
+//! Awkward but valid slices (found by review and fuzzing): features a hair from the wall or
+//! each other, sharp corners, combs, a C around a circle, extreme settings. Each either plans
+//! into a plan that passes `verify` and layers that never leave the printable region, or is
+//! refused with a typed error — never a panic, never a wrong plan.
+
+mod common;
+
+use hollowpath::toolpath::spiral::ControlFunction;
+use hollowpath::{Error, Slice};
+use host_sim::layers::{layer, Fill};
+use host_sim::slice_file;
+
+fn road_stays_in_region(
+    slice: &Slice,
+    path: &[hollowpath::toolpath::Vertex],
+) -> Result<(), String> {
+    let half = 0.5 * slice.settings().road_width;
+    for i in 1..path.len() {
+        if !path[i].deposit {
+            continue;
+        }
+        let (a, b) = (path[i - 1].at, path[i].at);
+        let n = (a.dist(b) / (0.1 * half)).ceil().max(1.0) as usize;
+        for t in 0..=n {
+            let p = a.lerp(b, t as f32 / n as f32);
+            if !slice.is_printable(p, 1e-3) {
+                return Err(format!("road {i} leaves the printable region at {p:?}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn edge_slices_plan_correctly_or_are_refused() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/edge");
+    let mut planned = 0;
+    let mut refused = 0;
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    for path in names {
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let slice = match slice_file::load(&path) {
+            Ok(f) => f.slice,
+            Err(e) => panic!("{name}: {e}"),
+        };
+        let mut planner = Box::new(hollowpath::Planner::new());
+        let plan = match planner.plan(&slice) {
+            Ok(plan) => plan,
+            Err(e @ (Error::NoRoom { .. } | Error::Capacity { .. })) => {
+                println!("{name}: refused: {e}");
+                refused += 1;
+                continue;
+            }
+            Err(e) => panic!("{name}: unexpected error {e}"),
+        };
+        hollowpath::verify::verify(&slice, plan).unwrap_or_else(|v| panic!("{name}: {v:?}"));
+        for (index, f) in [
+            (0, ControlFunction::Linear),
+            (1, ControlFunction::Linear),
+            (1, ControlFunction::RoadWidth),
+            (1, ControlFunction::Ease),
+        ] {
+            let l =
+                layer(&slice, plan, Fill::Mcl(f), index).unwrap_or_else(|e| panic!("{name}: {e}"));
+            road_stays_in_region(&slice, &l.path)
+                .unwrap_or_else(|e| panic!("{name} {:?} {f:?}: {e}", l.pattern));
+        }
+        for index in 0..2 {
+            if let Ok(l) = layer(&slice, plan, Fill::Raster, index) {
+                road_stays_in_region(&slice, &l.path)
+                    .unwrap_or_else(|e| panic!("{name} raster: {e}"));
+            }
+        }
+        planned += 1;
+    }
+    // Both outcomes occur in this set: the test exercises each.
+    assert!(
+        planned >= 10 && refused >= 2,
+        "planned {planned}, refused {refused}"
+    );
+}
