@@ -37,7 +37,7 @@ pub fn mcls_json(plan: &Plan) -> Value {
             "residual": s.residual, "traced": s.traced, "failed_traces": s.failed_traces,
             "dropped_crossing": s.dropped_crossing, "off_bisector": s.off_bisector,
             "matched_pairs": s.matched_pairs, "removed_unmatched": s.removed_unmatched,
-            "relax_moves": s.relax_moves, "thinned": s.thinned,
+            "relax_moves": s.relax_moves, "thinned": s.thinned, "removed_invalid": s.removed_invalid,
         },
     })
 }
