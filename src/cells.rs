@@ -253,17 +253,8 @@ fn march(
             }
         }
         prev_t = Some(t);
-        let mut q = p + t * step;
-        for _ in 0..3 {
-            let (na, da) = away_from_hole(slice, a, q);
-            let (nb, db) = away_from_hole(slice, b, q);
-            let gr = na - nb;
-            let g2 = gr.norm2();
-            if g2 < 1e-8 {
-                break;
-            }
-            q = q - gr * ((da - db) / g2);
-        }
+        // Predictor along the tangent, corrector back onto d_a = d_b.
+        let q = onto_bisector(slice, a, b, p + t * step);
         // Leaving the wall's printable region: a branch point on the wall.
         if slice.wall_clearance(q) < half {
             let e = bisect(p, q, |x| slice.wall_clearance(x) - half);

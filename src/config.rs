@@ -6,7 +6,8 @@
 //!
 //! The sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM; the
 //! firmware's `memory.x` clips QEMU's memory to that): the whole [`Planner`](crate::Planner)
-//! is about 230 KiB and is meant to live in a `static`. `tests/capacity.rs` in host-sim prints
+//! is about 290 KiB and is meant to live in a `static`; one layer's path buffer
+//! ([`PATH_VERTICES`]) another 224 KiB. `tests/capacity.rs` in host-sim prints
 //! how full each buffer gets on the reference slices.
 
 /// Most hollow features in one slice.

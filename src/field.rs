@@ -272,11 +272,6 @@ impl Field {
             Some(g * (1.0 / wsum))
         }
     }
-
-    /// The field value at free node `k`.
-    pub fn value(&self, k: usize) -> f32 {
-        self.u[k]
-    }
 }
 
 /// Level values at `p` (inside the cell of hole `i`) and at its neighbour `q` (labelled

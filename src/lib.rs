@@ -13,7 +13,7 @@
 //! slice ──► field + cells ──► MCLs: insert ──► match (Algorithm I) ──► relax ──► Plan
 //! ```
 //!
-//! * [`slice`]: the validated [`Slice`] (wall, hollow features, materials, [`Settings`]).
+//! * [`slice`](mod@slice): the validated [`Slice`] (wall, hollow features, materials, [`Settings`]).
 //!   [`Slice::new`] refuses every invalid slice with an [`Error`] that names the feature and
 //!   the reason; nothing downstream re-checks.
 //! * [`field`]: one grid over the slice. Each node is labelled by the Voronoi cell of the
@@ -51,6 +51,7 @@ mod fmt;
 
 pub mod cells;
 pub mod config;
+mod digest;
 pub mod error;
 pub mod field;
 pub mod geometry;

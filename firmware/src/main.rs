@@ -70,7 +70,8 @@ fn fail(what: &str, e: impl core::fmt::Debug) -> ! {
 fn built_in_slice() -> Slice {
     let wall = Feature::new(FeatureId::Wall, slice_data::WALL.0, slice_data::WALL.1)
         .unwrap_or_else(|e| fail("wall", e));
-    let mut holes: heapless_holes::Holes = heapless_holes::Holes::new();
+    let mut holes: hollowpath::heapless::Vec<Feature, { hollowpath::config::MAX_HOLES }> =
+        hollowpath::heapless::Vec::new();
     for (i, (pts, m)) in slice_data::HOLES.iter().enumerate() {
         let f = Feature::new(FeatureId::Hole(i as u8), pts, *m).unwrap_or_else(|e| fail("hole", e));
         if holes.push(f).is_err() {
@@ -83,13 +84,6 @@ fn built_in_slice() -> Slice {
         Settings::for_road_width(slice_data::ROAD_WIDTH),
     )
     .unwrap_or_else(|e| fail("slice", e))
-}
-
-mod heapless_holes {
-    /// The hollow features of the built-in slice before validation.
-    pub type Holes =
-        hollowpath_heapless::Vec<hollowpath::Feature, { hollowpath::config::MAX_HOLES }>;
-    use hollowpath::heapless as hollowpath_heapless;
 }
 
 #[entry]

@@ -16,7 +16,7 @@ pub mod slice_file;
 /// The built-in default slice (the four-hole reference slice, after the paper's Fig. 8).
 pub const DEFAULT_SLICE: &str = REFERENCE_SLICES[0].1;
 
-/// Plans `slice` with a fresh planner on the heap (the planner is ~200 KiB).
+/// Plans `slice` with a fresh planner on the heap (the planner is ~290 KiB).
 pub fn plan(slice: &hollowpath::Slice) -> Result<Box<hollowpath::Planner>, hollowpath::Error> {
     let mut planner = Box::new(hollowpath::Planner::new());
     planner.plan(slice)?;

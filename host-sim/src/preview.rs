@@ -34,6 +34,23 @@ fn pieces(a: &Material, b: &Material, len: f32, w: f32) -> usize {
     }
 }
 
+/// The coloured pieces a road is drawn in: each move split into up to 16 pieces (one where its
+/// ends look alike) with the blended composition at the piece's middle.
+fn shaded_pieces(road: &[Vertex], w: f32) -> impl Iterator<Item = (Point, Point, Material)> + '_ {
+    road.windows(2).flat_map(move |seg| {
+        let (a, b) = (seg[0], seg[1]);
+        let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
+        (0..n).map(move |k| {
+            let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
+            (
+                a.at.lerp(b.at, t0),
+                a.at.lerp(b.at, t1),
+                blend(&a.material, &b.material, 0.5 * (t0 + t1)),
+            )
+        })
+    })
+}
+
 /// `(x0, y1, width, height)` of the picture in mm: the wall's box grown by [`MARGIN_MM`]
 /// (`x0` its left edge, `y1` its top).
 fn frame(slice: &Slice) -> (f32, f32, f32, f32) {
@@ -86,23 +103,16 @@ pub fn layer_svg(slice: &Slice, path: &[Vertex]) -> String {
         if road.iter().all(|v| colour(&v.material) == base) {
             continue;
         }
-        for seg in road.windows(2) {
-            let (a, b) = (&seg[0], &seg[1]);
-            let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
-            for k in 0..n {
-                let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
-                let (p, q) = (a.at.lerp(b.at, t0), a.at.lerp(b.at, t1));
-                let m = blend(&a.material, &b.material, 0.5 * (t0 + t1));
-                let _ = writeln!(
-                    s,
-                    r#"<line class="shade" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{}" stroke-width="{w}" stroke-linecap="round"/>"#,
-                    p.x,
-                    -p.y,
-                    q.x,
-                    -q.y,
-                    colour(&m)
-                );
-            }
+        for (p, q, m) in shaded_pieces(road, w) {
+            let _ = writeln!(
+                s,
+                r#"<line class="shade" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{}" stroke-width="{w}" stroke-linecap="round"/>"#,
+                p.x,
+                -p.y,
+                q.x,
+                -q.y,
+                colour(&m)
+            );
         }
     }
     for (k, v) in path.iter().enumerate().skip(1) {
@@ -206,15 +216,9 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
             }
             continue;
         }
-        for seg in verts.windows(2) {
-            let (a, b) = (&seg[0], &seg[1]);
-            let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
-            for k in 0..n {
-                let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
-                let m = blend(&a.material, &b.material, 0.5 * (t0 + t1));
-                if let Some(p) = polyline(&[a.at.lerp(b.at, t0), a.at.lerp(b.at, t1)], false) {
-                    pixmap.stroke_path(&p, &paint_of(&colour(&m), false), &road, id, None);
-                }
+        for (p, q, m) in shaded_pieces(verts, w) {
+            if let Some(line) = polyline(&[p, q], false) {
+                pixmap.stroke_path(&line, &paint_of(&colour(&m), false), &road, id, None);
             }
         }
     }

@@ -6,6 +6,21 @@ fn hollowpath() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hollowpath"))
 }
 
+/// Runs the tool and insists it succeeded (showing its stderr if not).
+fn run_ok(cmd: &mut Command) -> std::process::Output {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn read_json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("hollowpath-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -16,18 +31,8 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn plan_writes_mcls_json_and_svg() {
     let out = tmp("plan");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
-    let st = hollowpath()
-        .args(["plan", slice, "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("mcls.json")).unwrap()).unwrap();
+    run_ok(hollowpath().args(["plan", slice, "--out"]).arg(&out));
+    let doc = read_json(&out.join("mcls.json"));
     let mcls = doc["mcls"].as_array().unwrap();
     assert!(mcls.len() > 100);
     let mut to_wall = 0;
@@ -68,27 +73,21 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
     let out = tmp("layers");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/vessel_ring.json");
     let g = out.join("print.gcode");
-    let st = hollowpath()
-        .args([
-            "plan", slice, "--layers", "3", "--spiral", "linear", "--out",
-        ])
-        .arg(&out)
-        .arg("--gcode")
-        .arg(&g)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    run_ok(
+        hollowpath()
+            .args([
+                "plan", slice, "--layers", "3", "--spiral", "linear", "--out",
+            ])
+            .arg(&out)
+            .arg("--gcode")
+            .arg(&g),
     );
     for k in 0..3 {
         assert!(out.join(format!("layer-{k}.svg")).is_file());
         let png = std::fs::read(out.join(format!("layer-{k}.png"))).unwrap();
         assert_eq!(&png[1..4], b"PNG");
     }
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let doc = read_json(&out.join("metrics.json"));
     let layers = doc["layers"].as_array().unwrap();
     let patterns: Vec<&str> = layers
         .iter()
@@ -118,14 +117,12 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
     assert_eq!(host_sim::gcode::parse(&text).unwrap().len(), 3);
     // The raster baseline through the same command.
     let out2 = tmp("raster");
-    let st = hollowpath()
-        .args(["plan", slice, "--pattern", "raster", "--out"])
-        .arg(&out2)
-        .output()
-        .unwrap();
-    assert!(st.status.success());
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out2.join("metrics.json")).unwrap()).unwrap();
+    run_ok(
+        hollowpath()
+            .args(["plan", slice, "--pattern", "raster", "--out"])
+            .arg(&out2),
+    );
+    let doc = read_json(&out2.join("metrics.json"));
     assert!(doc["layers"]
         .as_array()
         .unwrap()
@@ -136,16 +133,7 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
 #[test]
 fn demo_runs_on_the_built_in_slice() {
     let out = tmp("demo");
-    let st = hollowpath()
-        .args(["demo", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
+    let st = run_ok(hollowpath().args(["demo", "--out"]).arg(&out));
     assert!(String::from_utf8_lossy(&st.stdout).contains("four_holes"));
     assert!(out.join("mcls.svg").is_file() && out.join("mcls.json").is_file());
     let stdout = String::from_utf8_lossy(&st.stdout);
@@ -156,8 +144,7 @@ fn demo_runs_on_the_built_in_slice() {
         );
     }
     assert!(out.join("demo.gcode").is_file() && out.join("layer-1.png").is_file());
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let doc = read_json(&out.join("metrics.json"));
     assert_eq!(doc["baseline"]["pattern"], "raster");
 }
 

@@ -5,30 +5,42 @@
 use hollowpath::toolpath::composition::BlendedField;
 use hollowpath::toolpath::spiral::ControlFunction;
 use hollowpath::toolpath::Pattern;
-use host_sim::layers::{layer, Fill};
-use host_sim::metrics::{Meter, Options};
+use hollowpath::Slice;
+use host_sim::layers::{layer, Fill, Layer};
+use host_sim::metrics::{LayerMetrics, Meter, Options};
 use host_sim::{gcode, slice_file, REFERENCE_SLICES};
+
+/// Plans `slice` and builds and measures the given layers (index, fill) on a 0.05 mm raster
+/// (coarser than the CLI's, to keep the test quick; the figures move by < 0.5 %).
+fn measured(slice: &Slice, layers: &[(usize, Fill)]) -> Vec<(Layer, LayerMetrics)> {
+    let planner = host_sim::plan(slice).unwrap();
+    let plan = planner.last_plan();
+    let field = BlendedField::new(slice, plan);
+    let field_fn = |p| field.at(p);
+    let mut meter = Meter::new(slice, Options::with_cell(0.05));
+    layers
+        .iter()
+        .map(|&(index, fill)| {
+            let l = layer(slice, plan, fill, index).unwrap();
+            let m = meter.measure(l.pattern, &l.path, &field_fn);
+            (l, m)
+        })
+        .collect()
+}
 
 #[test]
 fn mcl_layers_meet_the_spill_start_and_composition_bar() {
     for (name, text) in REFERENCE_SLICES {
         let slice = slice_file::parse(text).unwrap().slice;
-        let planner = host_sim::plan(&slice).unwrap();
-        let plan = planner.last_plan();
-        let field = BlendedField::new(&slice, plan);
-        let field_fn = |p| field.at(p);
-        // A coarser raster than the CLI's keeps the test quick; the figures move by < 0.5 %.
-        let mut meter = Meter::new(&slice, Options::with_cell(0.05));
         let holes = slice.holes().len() as u32;
-        for (index, fill) in [
+        let fills = [
             (0, Fill::Mcl(ControlFunction::RoadWidth)),
             (1, Fill::Mcl(ControlFunction::Linear)),
             (1, Fill::Mcl(ControlFunction::RoadWidth)),
             (1, Fill::Mcl(ControlFunction::Ease)),
-        ] {
-            let l = layer(&slice, plan, fill, index).unwrap();
-            let m = meter.measure(l.pattern, &l.path, &field_fn);
-            let what = format!("{name} {} ({fill:?})", m.pattern);
+        ];
+        for (l, m) in measured(&slice, &fills) {
+            let what = format!("{name} {} ({})", m.pattern, l.note);
             println!("{what}: {m:?}");
             assert!(m.spill < 1e-4, "{what}: spill {}", m.spill);
             assert!(m.starts <= 1 + holes, "{what}: {} starts", m.starts);
@@ -45,43 +57,26 @@ fn mcl_layers_meet_the_spill_start_and_composition_bar() {
                 m.composition_error
             );
             assert!(m.coverage > 0.8, "{what}: coverage {}", m.coverage);
+            // The zigzag and the road-width spiral are one continuous road on every reference
+            // slice.
+            if l.pattern == Pattern::Zigzag || l.note.contains("road-width") {
+                assert_eq!(host_sim::metrics::road_runs(&l.path).len(), 1, "{what}");
+            }
         }
-        // The zigzag is one continuous road on every reference slice.
-        let z = layer(&slice, plan, Fill::Mcl(ControlFunction::Linear), 0).unwrap();
-        assert_eq!(z.pattern, Pattern::Zigzag);
-        assert_eq!(
-            host_sim::metrics::road_runs(&z.path).len(),
-            1,
-            "{name}: {}",
-            z.note
-        );
-        // And so is the spiral.
-        let s = layer(&slice, plan, Fill::Mcl(ControlFunction::RoadWidth), 1).unwrap();
-        assert_eq!(
-            host_sim::metrics::road_runs(&s.path).len(),
-            1,
-            "{name}: {}",
-            s.note
-        );
     }
 }
 
 #[test]
 fn raster_baseline_is_measured_the_same_way() {
-    let (_, text) = REFERENCE_SLICES[0];
-    let slice = slice_file::parse(text).unwrap().slice;
-    let planner = host_sim::plan(&slice).unwrap();
-    let plan = planner.last_plan();
-    let field = BlendedField::new(&slice, plan);
-    let field_fn = |p| field.at(p);
-    let mut meter = Meter::new(&slice, Options::with_cell(0.05));
-    let r = layer(&slice, plan, Fill::Raster, 0).unwrap();
-    let m = meter.measure(r.pattern, &r.path, &field_fn);
+    let slice = slice_file::parse(REFERENCE_SLICES[0].1).unwrap().slice;
+    let both = measured(
+        &slice,
+        &[(0, Fill::Raster), (0, Fill::Mcl(ControlFunction::Linear))],
+    );
+    let (m, mz) = (&both[0].1, &both[1].1);
     // Many starts (a perimeter per feature and broken lines), good coverage, no spill.
     assert!(m.starts > 1 + slice.holes().len() as u32, "{m:?}");
     assert!(m.coverage > 0.97 && m.spill < 1e-4, "{m:?}");
-    let z = layer(&slice, plan, Fill::Mcl(ControlFunction::Linear), 0).unwrap();
-    let mz = meter.measure(z.pattern, &z.path, &field_fn);
     assert!(
         mz.starts < m.starts && mz.travel_mm < m.travel_mm,
         "{mz:?} vs {m:?}"

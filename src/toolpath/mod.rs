@@ -80,22 +80,15 @@ impl<const N: usize> PathSink for heapless::Vec<Vertex, N> {
 /// A 64-bit FNV-1a digest of a path (positions and compositions as IEEE bits, deposit flags):
 /// equal digests mean bit-identical layers, on the host and on the MCU.
 pub fn digest(path: &[Vertex]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |x: u32| {
-        for b in x.to_le_bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = crate::digest::Fnv::new();
     for v in path {
-        eat(v.at.x.to_bits());
-        eat(v.at.y.to_bits());
+        h.point(v.at);
         for m in v.material {
-            eat(m.to_bits());
+            h.word(m.to_bits());
         }
-        eat(v.deposit as u32);
+        h.word(v.deposit as u32);
     }
-    h
+    h.finish()
 }
 
 #[cfg(feature = "alloc")]

@@ -68,16 +68,17 @@ struct Spoke {
     usable: f32,
 }
 
-fn spokes(plan: &Plan, hole: usize, half_width: f32) -> Vec<Spoke, MAX_HALVES> {
+fn spokes(
+    plan: &Plan,
+    owner: &[u16; MAX_HALVES],
+    hole: usize,
+    half_width: f32,
+) -> Vec<Spoke, MAX_HALVES> {
     let order = crate::mcl::insert::sorted_halves(&plan.halves, hole);
     let mut out: Vec<Spoke, MAX_HALVES> = Vec::new();
     for &h in order.iter() {
-        let Some((k, m)) = plan
-            .mcls
-            .iter()
-            .enumerate()
-            .find(|(_, m)| m.first == h || m.second == Some(h))
-        else {
+        let k = owner[h as usize] as usize;
+        let Some(m) = plan.mcls.get(k) else {
             continue;
         };
         let half = &plan.halves[h as usize];
@@ -120,10 +121,18 @@ pub fn spiral(
         }
     }
     let order = cell_order(holes, &link);
+    // The MCL each half belongs to.
+    let mut owner = [u16::MAX; MAX_HALVES];
+    for (k, m) in plan.mcls.iter().enumerate() {
+        owner[m.first as usize] = k as u16;
+        if let Some(s) = m.second {
+            owner[s as usize] = k as u16;
+        }
+    }
     let mut entry: Option<u16> = None; // the half the road arrives on, from the previous cell
     for (pos, &cell) in order.iter().enumerate() {
         let cell = cell as usize;
-        let sp = spokes(plan, cell, 0.5 * w);
+        let sp = spokes(plan, &owner, cell, 0.5 * w);
         if sp.is_empty() {
             continue;
         }

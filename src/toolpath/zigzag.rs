@@ -263,6 +263,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
     while spliced {
         spliced = false;
         ends.pieces(&mut parent);
+        let open = open_pieces(&ends, &mut parent);
         'curves: for c in 0..=holes {
             let (lo, hi) = ends.ranges[c];
             let n = (hi - lo) as usize;
@@ -279,9 +280,8 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
                 if a != before || d != after {
                     continue;
                 }
-                if find(&mut parent, b) == find(&mut parent, cc)
-                    || !(is_loop(&ends, &mut parent, b) || is_loop(&ends, &mut parent, cc))
-                {
+                let (rb, rc) = (find(&mut parent, b), find(&mut parent, cc));
+                if rb == rc || (open[rb as usize] && open[rc as usize]) {
                     continue;
                 }
                 ends.arc[a as usize] = d;
@@ -298,6 +298,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
 
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces,
     // travel to the nearest free end.
+    let open = open_pieces(&ends, &mut parent);
     let mut visited = [false; ENDS];
     let mut here: Option<Point> = None;
     loop {
@@ -307,8 +308,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
                 continue;
             }
             let root = find(&mut parent, id);
-            let open_path = piece_has_free_end(&ends, &mut parent, root);
-            if open_path && ends.arc[id as usize] != NONE {
+            if open[root as usize] && ends.arc[id as usize] != NONE {
                 continue;
             }
             let p = end_point(plan, &ends, id);
@@ -343,13 +343,15 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
     Ok(stats)
 }
 
-fn is_loop(ends: &Ends, parent: &mut [u16; ENDS], id: u16) -> bool {
-    let root = find(parent, id);
-    !piece_has_free_end(ends, parent, root)
-}
-
-fn piece_has_free_end(ends: &Ends, parent: &mut [u16; ENDS], root: u16) -> bool {
-    (0..ends.count).any(|i| ends.arc[i] == NONE && find(parent, i as u16) == root)
+/// For every piece (by its union-find root), whether it has a free end: a path, not a loop.
+fn open_pieces(ends: &Ends, parent: &mut [u16; ENDS]) -> [bool; ENDS] {
+    let mut open = [false; ENDS];
+    for i in 0..ends.count {
+        if ends.arc[i] == NONE {
+            open[find(parent, i as u16) as usize] = true;
+        }
+    }
+    open
 }
 
 fn end_point(plan: &Plan, ends: &Ends, id: u16) -> Point {
