@@ -137,7 +137,9 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
                     );
                 }
             }
-            if !slice.is_printable(prev.at, 1e-4) {
+            // A depositing predecessor was checked when it was emitted; only the start of a
+            // road (reached by travel) still needs it.
+            if !prev.deposit && !slice.is_printable(prev.at, 1e-4) {
                 return emit(
                     sink,
                     Vertex {
