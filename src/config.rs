@@ -63,6 +63,14 @@ pub const TRACE_POINTS: usize = 1_024;
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 
+/// Points of all the offset spiral's traced loops together
+/// ([`OffsetSpiral`](crate::toolpath::offset::OffsetSpiral)).
+pub const CONTOUR_POINTS: usize = 8_192;
+/// Most loops of one offset-spiral layer.
+pub const MAX_LOOPS: usize = 256;
+/// Most pairs of loops running side by side (and joins) in one offset-spiral layer.
+pub const MAX_SITES: usize = 512;
+
 /// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
 pub const PATH_VERTICES: usize = 8_192;
 

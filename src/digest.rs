@@ -4,6 +4,8 @@
 use crate::geometry::Point;
 
 /// A 64-bit FNV-1a hash fed little-endian 32-bit words.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub(crate) struct Fnv(u64);
 
 impl Fnv {
@@ -24,7 +26,7 @@ impl Fnv {
         self.word(p.y.to_bits());
     }
 
-    pub(crate) fn finish(self) -> u64 {
+    pub(crate) fn finish(&self) -> u64 {
         self.0
     }
 }

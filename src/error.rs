@@ -96,6 +96,12 @@ pub enum Limit {
     /// [`PATH_VERTICES`](crate::config::PATH_VERTICES): the capacity of the sink a layer is
     /// written into.
     PathVertices,
+    /// [`CONTOUR_POINTS`](crate::config::CONTOUR_POINTS)
+    ContourPoints,
+    /// [`MAX_LOOPS`](crate::config::MAX_LOOPS)
+    ContourLoops,
+    /// [`MAX_SITES`](crate::config::MAX_SITES)
+    ContourSites,
 }
 
 impl Limit {
@@ -116,6 +122,9 @@ impl Limit {
             Limit::HalfPoints => HALF_POINTS,
             Limit::Mcls => MAX_MCLS,
             Limit::PathVertices => PATH_VERTICES,
+            Limit::ContourPoints => CONTOUR_POINTS,
+            Limit::ContourLoops => MAX_LOOPS,
+            Limit::ContourSites => MAX_SITES,
         }
     }
 
@@ -134,6 +143,9 @@ impl Limit {
             Limit::HalfPoints => "points in one simplified MCL half",
             Limit::Mcls => "material changing lines",
             Limit::PathVertices => "vertices in one layer's path",
+            Limit::ContourPoints => "points of the offset spiral's loops",
+            Limit::ContourLoops => "loops of the offset spiral",
+            Limit::ContourSites => "side-by-side pairs of the offset spiral's loops",
         }
     }
 }

@@ -4,6 +4,7 @@ mod common;
 
 use common::{check_layer, check_layer_with, feature};
 use hollowpath::geometry::Point;
+use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::Vertex;
@@ -133,6 +134,11 @@ proptest! {
             check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("spiral {f:?}: {e}")))?;
             prop_assert_eq!(common::starts(&path), 1 + s.jumps as usize);
         }
+        path.clear();
+        let mut work = Box::new(OffsetSpiral::new());
+        let s = work.build(&slice, plan, &mut *path).map_err(|e| TestCaseError::fail(format!("offset: {e}")))?;
+        check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("offset spiral: {e}")))?;
+        prop_assert_eq!(common::starts(&path), 1 + s.jumps as usize);
         let again = planner.plan(&slice).unwrap().digest();
         prop_assert_eq!(digest, again);
     }
@@ -242,6 +248,13 @@ proptest! {
                 Err(hollowpath::Error::Capacity { .. }) => {}
                 Err(e) => return Err(TestCaseError::fail(format!("spiral {f:?}: {e}"))),
             }
+        }
+        path.clear();
+        let mut work = Box::new(OffsetSpiral::new());
+        match work.build(&slice, plan, &mut *path) {
+            Ok(_) => check_layer_with(&slice, &path, false).map_err(|e| TestCaseError::fail(format!("offset spiral: {e}")))?,
+            Err(hollowpath::Error::Capacity { .. }) => {}
+            Err(e) => return Err(TestCaseError::fail(format!("offset spiral: {e}"))),
         }
     }
 }

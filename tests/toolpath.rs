@@ -3,6 +3,7 @@
 mod common;
 
 use common::{check_layer, starts, two_circles};
+use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::{raster::raster, Vertex};
@@ -66,6 +67,48 @@ fn spirals_of_every_control_function_chain_the_cells() {
         (lengths[0] - lengths[1]).abs() > 1.0 && (lengths[0] - lengths[2]).abs() > 1e-3,
         "{lengths:?}"
     );
+}
+
+#[test]
+fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
+    let slice = two_circles(Settings::default());
+    let w = slice.settings().road_width;
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    let mut work = Box::new(OffsetSpiral::new());
+    let mut path = Box::new(Path::new());
+    let stats = work.build(&slice, plan, &mut *path).unwrap();
+    check_layer(&slice, &path).unwrap();
+    assert_eq!(stats.jumps, 0, "{stats:?}");
+    assert_eq!(starts(&path), 1);
+    assert!(stats.levels >= 5 && stats.joins >= 2, "{stats:?}");
+    // Every vertex lies on a turn: its distance to the nearest feature is w/2 + k w (plus the
+    // first turn's 3 micron margin), to the simplification tolerance.
+    let mut used = std::collections::BTreeSet::new();
+    for (i, v) in path.iter().enumerate() {
+        let d = slice
+            .holes()
+            .iter()
+            .map(|h| h.signed_distance(v.at))
+            .fold(-slice.wall().signed_distance(v.at), f32::min);
+        let k = ((d - 0.5 * w - 3e-3) / w).round();
+        let off = d - (0.5 * w + 3e-3 + k * w);
+        assert!(
+            off.abs() < 5e-3,
+            "vertex {i} at {:?}: {off} off turn {k}",
+            v.at
+        );
+        used.insert(k as i32);
+    }
+    // Every level from the first is laid (the top one may hold only loops too small to turn
+    // in, which are left out).
+    let n = used.len() as i32;
+    assert!(used.iter().copied().eq(0..n), "{used:?}");
+    assert!(n + 1 >= stats.levels as i32, "{used:?} of {stats:?}");
+    // Deterministic: the same slice gives the same path.
+    let mut again = Box::new(Path::new());
+    work.build(&slice, plan, &mut *again).unwrap();
+    assert!(path.iter().eq(again.iter()));
 }
 
 #[test]

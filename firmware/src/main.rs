@@ -12,9 +12,9 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use hollowpath::toolpath::spiral::{spiral, ControlFunction};
+use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::zigzag::zigzag;
-use hollowpath::toolpath::{digest, Vertex};
+use hollowpath::toolpath::DigestSink;
 use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
 use static_cell::ConstStaticCell;
 
@@ -26,10 +26,8 @@ mod slice_data {
 /// The planner's working memory, in .bss (its initial value is all zeros).
 static PLANNER: ConstStaticCell<Planner> = ConstStaticCell::new(Planner::new());
 
-/// One layer's path at a time.
-static PATH: ConstStaticCell<Path> = ConstStaticCell::new(Path::new());
-
-type Path = hollowpath::heapless::Vec<Vertex, { hollowpath::config::PATH_VERTICES }>;
+/// The offset spiral's working memory, in .bss.
+static OFFSET: ConstStaticCell<OffsetSpiral> = ConstStaticCell::new(OffsetSpiral::new());
 
 /// SysTick wraps (each 2^24 ticks).
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -123,26 +121,31 @@ fn main() -> ! {
     }
     hprintln!("verify ok");
 
-    // The two layers of the demo: a zigzag and a road-width spiral.
-    let path = PATH.take();
+    // The two layers of the demo, a zigzag and the offset spiral, streamed as a motion queue
+    // would take them: no path buffer, only their length and digest.
+    let mut sink = DigestSink::new();
     let t4 = ticks();
-    zigzag(&slice, plan, path).unwrap_or_else(|e| fail("zigzag", e));
+    zigzag(&slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
     let t5 = ticks();
     hprintln!(
         "layer 0 vertices {} digest {:016x} ticks {}",
-        path.len(),
-        digest(path),
+        sink.len(),
+        sink.digest(),
         t5 - t4
     );
-    path.clear();
+    let offset = OFFSET.take();
+    let mut sink = DigestSink::new();
     let t6 = ticks();
-    spiral(&slice, plan, ControlFunction::RoadWidth, path).unwrap_or_else(|e| fail("spiral", e));
+    let stats = offset
+        .build(&slice, plan, &mut sink)
+        .unwrap_or_else(|e| fail("offset spiral", e));
     let t7 = ticks();
     hprintln!(
-        "layer 1 vertices {} digest {:016x} ticks {}",
-        path.len(),
-        digest(path),
-        t7 - t6
+        "layer 1 vertices {} digest {:016x} ticks {} jumps {}",
+        sink.len(),
+        sink.digest(),
+        t7 - t6,
+        stats.jumps
     );
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]

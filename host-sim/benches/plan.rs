@@ -30,11 +30,18 @@ fn layers_of_reference_slices(c: &mut Criterion) {
         let slice = slice_file::parse(text).unwrap().slice;
         let planner = host_sim::plan(&slice).unwrap();
         let plan = planner.last_plan();
-        for (what, index) in [("zigzag", 0), ("spiral", 1)] {
+        for (what, fill, index) in [
+            ("zigzag", Fill::Offset, 0),
+            (
+                "spiral-road-width",
+                Fill::Mcl(ControlFunction::RoadWidth),
+                1,
+            ),
+            ("spiral-offset", Fill::Offset, 1),
+        ] {
             group.bench_function(format!("{name}/{what}"), |b| {
                 b.iter(|| {
-                    let l =
-                        layer(&slice, plan, Fill::Mcl(ControlFunction::RoadWidth), index).unwrap();
+                    let l = layer(&slice, plan, fill, index).unwrap();
                     black_box(l.path.len())
                 })
             });

@@ -1,6 +1,7 @@
 //! The layers of a print: zigzag and spiral alternating along the MCLs (or the raster
 //! baseline), each a path of vertices from the core's generators.
 
+use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::{raster::raster, Pattern, Vertex};
@@ -11,6 +12,9 @@ use hollowpath::{Error, Plan, Slice};
 pub enum Fill {
     /// Zigzag on even layers, spiral (with this control function) on odd ones.
     Mcl(ControlFunction),
+    /// Zigzag on even layers, the offset spiral (turns a road width apart, one closed road)
+    /// on odd ones.
+    Offset,
     /// The Cartesian raster baseline on every layer (45 and 135 degrees alternating).
     Raster,
 }
@@ -36,7 +40,7 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
             raster(slice, plan, index, &mut path)?;
             (Pattern::Raster, String::from("raster baseline"))
         }
-        Fill::Mcl(_) if index % 2 == 0 => {
+        Fill::Mcl(_) | Fill::Offset if index % 2 == 0 => {
             let s = zigzag(slice, plan, &mut path)?;
             (
                 Pattern::Zigzag,
@@ -50,6 +54,26 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
                     } else {
                         ""
                     }
+                ),
+            )
+        }
+        Fill::Offset => {
+            let mut work = Box::new(OffsetSpiral::new());
+            let s = work.build(slice, plan, &mut path)?;
+            (
+                Pattern::Spiral,
+                format!(
+                    "spiral (offset): {} turns, {} loops joined by {} bridges, {} jump(s){}, {} loop(s) too small to turn in",
+                    s.levels,
+                    s.loops,
+                    s.joins,
+                    s.jumps,
+                    if s.jumps > 0 {
+                        " (loops that run beside no loop already in the road)"
+                    } else {
+                        ""
+                    },
+                    s.dropped
                 ),
             )
         }

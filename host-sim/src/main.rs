@@ -39,14 +39,18 @@ enum SpiralArg {
     RoadWidth,
     /// Turns packed closer at the feature and at the cell boundary.
     Ease,
+    /// Turns at fixed distances from the features, a road width apart everywhere, joined into
+    /// one closed road (the default).
+    Offset,
 }
 
-impl From<SpiralArg> for ControlFunction {
+impl From<SpiralArg> for Fill {
     fn from(s: SpiralArg) -> Self {
         match s {
-            SpiralArg::Linear => ControlFunction::Linear,
-            SpiralArg::RoadWidth => ControlFunction::RoadWidth,
-            SpiralArg::Ease => ControlFunction::Ease,
+            SpiralArg::Linear => Fill::Mcl(ControlFunction::Linear),
+            SpiralArg::RoadWidth => Fill::Mcl(ControlFunction::RoadWidth),
+            SpiralArg::Ease => Fill::Mcl(ControlFunction::Ease),
+            SpiralArg::Offset => Fill::Offset,
         }
     }
 }
@@ -69,7 +73,7 @@ enum Command {
         #[arg(long, value_enum, default_value = "mcl")]
         pattern: PatternArg,
         /// The spiral control function u = f(v).
-        #[arg(long, value_enum, default_value = "road-width")]
+        #[arg(long, value_enum, default_value = "offset")]
         spiral: SpiralArg,
         /// Also write Marlin G-code here.
         #[arg(long)]
@@ -98,7 +102,7 @@ fn main() -> ExitCode {
             .map_err(|e| format!("{}: {e}", slice.display()))
             .and_then(|f| {
                 let fill = match pattern {
-                    PatternArg::Mcl => Fill::Mcl(spiral.into()),
+                    PatternArg::Mcl => spiral.into(),
                     PatternArg::Raster => Fill::Raster,
                 };
                 run(&f, &out, layers, fill, gcode.as_deref(), false)
@@ -107,14 +111,7 @@ fn main() -> ExitCode {
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
                 let g = out.join("demo.gcode");
-                run(
-                    &f,
-                    &out,
-                    2,
-                    Fill::Mcl(ControlFunction::RoadWidth),
-                    Some(&g),
-                    true,
-                )
+                run(&f, &out, 2, Fill::Offset, Some(&g), true)
             }),
     };
     match result {

@@ -67,6 +67,29 @@ fn mcl_layers_meet_the_spill_start_and_composition_bar() {
 }
 
 #[test]
+fn offset_spiral_is_one_start_with_no_spill_and_little_overfill() {
+    for (name, text) in REFERENCE_SLICES {
+        let slice = slice_file::parse(text).unwrap().slice;
+        for (l, m) in measured(&slice, &[(1, Fill::Offset)]) {
+            let what = format!("{name} ({})", l.note);
+            println!("{what}: {m:?}");
+            assert_eq!(m.spill, 0.0, "{what}");
+            assert_eq!(m.starts, 1, "{what}");
+            assert_eq!(host_sim::metrics::road_runs(&l.path).len(), 1, "{what}");
+            assert!(m.feature_composition_error < 1e-3, "{what}");
+            assert!(m.composition_error < 0.05, "{what}");
+            // Turns a road width apart: the bar's overfill with room to spare...
+            assert!(m.overfill < 0.02, "{what}: overfill {}", m.overfill);
+            // ...and its coverage on the hole slices (to the test's coarser raster). On the
+            // ring the ridge between the wall's and the hole's turns is left as a gap of up to
+            // a road width where the band is not a whole number of roads wide (0.93).
+            let bar = if name.contains("ring") { 0.92 } else { 0.965 };
+            assert!(m.coverage > bar, "{what}: coverage {}", m.coverage);
+        }
+    }
+}
+
+#[test]
 fn raster_baseline_is_measured_the_same_way() {
     let slice = slice_file::parse(REFERENCE_SLICES[0].1).unwrap().slice;
     let both = measured(

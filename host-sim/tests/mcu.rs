@@ -23,7 +23,7 @@ fn qemu_available() -> bool {
 }
 
 #[test]
-fn firmware_plan_is_bit_identical_to_the_host_plan() {
+fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
     if !qemu_available() {
         assert!(
             std::env::var_os("CI").is_none(),
@@ -119,6 +119,24 @@ fn firmware_plan_is_bit_identical_to_the_host_plan() {
         digest.trim(),
         format!("{:016x}", planner.last_plan().digest())
     );
+    // The layers, streamed on the MCU, match the host's vertex for vertex.
+    let plan = planner.last_plan();
+    let mut zigzag = hollowpath::toolpath::DigestSink::new();
+    hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
+    let mut offset = hollowpath::toolpath::DigestSink::new();
+    let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
+    work.build(&slice, plan, &mut offset).unwrap();
+    for (k, sink) in [zigzag, offset].iter().enumerate() {
+        let line = out
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("layer {k} ")))
+            .unwrap_or_else(|| panic!("no layer {k} in:\n{out}"));
+        let expect = format!("vertices {} digest {:016x} ", sink.len(), sink.digest());
+        assert!(
+            line.starts_with(&expect),
+            "layer {k}: {line}, host {expect}"
+        );
+    }
     let mcls = out.lines().find_map(|l| l.strip_prefix("mcls ")).unwrap();
     assert!(
         mcls.starts_with(&format!("{} ", planner.last_plan().mcls.len())),

@@ -6,6 +6,7 @@
 //! deposits there, and whether the move into it deposits (a road) or travels (valves shut).
 
 pub mod composition;
+pub mod offset;
 pub mod raster;
 pub mod spiral;
 pub mod zigzag;
@@ -80,15 +81,89 @@ impl<const N: usize> PathSink for heapless::Vec<Vertex, N> {
 /// A 64-bit FNV-1a digest of a path (positions and compositions as IEEE bits, deposit flags):
 /// equal digests mean bit-identical layers, on the host and on the MCU.
 pub fn digest(path: &[Vertex]) -> u64 {
-    let mut h = crate::digest::Fnv::new();
-    for v in path {
-        h.point(v.at);
-        for m in v.material {
-            h.word(m.to_bits());
-        }
-        h.word(v.deposit as u32);
+    let mut sink = DigestSink::new();
+    for &v in path {
+        sink.add(v);
     }
-    h.finish()
+    sink.digest()
+}
+
+/// A [`PathSink`] that keeps no path, only its [`digest`], its length and its last vertex:
+/// a layer streamed through it (to the motion queue, or just to be fingerprinted) needs no
+/// path buffer.
+///
+/// ```
+/// use hollowpath::geometry::Point;
+/// use hollowpath::toolpath::{digest, DigestSink, PathSink, Vertex};
+/// let path = [
+///     Vertex { at: Point::new(0.0, 0.0), material: [1.0, 0.0, 0.0, 0.0], deposit: false },
+///     Vertex { at: Point::new(1.0, 0.0), material: [0.5, 0.5, 0.0, 0.0], deposit: true },
+/// ];
+/// let mut sink = DigestSink::new();
+/// for &v in &path {
+///     sink.push_vertex(v).unwrap();
+/// }
+/// assert_eq!((sink.len(), sink.digest()), (2, digest(&path)));
+/// assert_eq!(sink.last_vertex(), Some(path[1]));
+/// ```
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DigestSink {
+    fnv: crate::digest::Fnv,
+    len: usize,
+    last: Option<Vertex>,
+}
+
+impl Default for DigestSink {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl DigestSink {
+    /// An empty path's sink.
+    pub const fn new() -> DigestSink {
+        DigestSink {
+            fnv: crate::digest::Fnv::new(),
+            len: 0,
+            last: None,
+        }
+    }
+
+    fn add(&mut self, v: Vertex) {
+        self.fnv.point(v.at);
+        for m in v.material {
+            self.fnv.word(m.to_bits());
+        }
+        self.fnv.word(v.deposit as u32);
+        self.len += 1;
+        self.last = Some(v);
+    }
+
+    /// The digest of the vertices so far, as [`digest`] gives for them.
+    pub fn digest(&self) -> u64 {
+        self.fnv.finish()
+    }
+
+    /// How many vertices passed.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether none did.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl PathSink for DigestSink {
+    fn push_vertex(&mut self, v: Vertex) -> Result<(), Vertex> {
+        self.add(v);
+        Ok(())
+    }
+    fn last_vertex(&self) -> Option<Vertex> {
+        self.last
+    }
 }
 
 #[cfg(feature = "alloc")]

@@ -1,0 +1,894 @@
+//! The offset spiral: the spiral layer with turns exactly a road width apart everywhere, joined
+//! into one closed road.
+//!
+//! The paper's spiral (section 2.4) lays `S(t) = MCL_v(u)` turn after turn in each Voronoi
+//! cell; with the same number of turns on every MCL, turns crowd on short MCLs and part on long
+//! ones ([`ControlFunction`](super::spiral::ControlFunction)). Here `f` is chosen so that every
+//! turn lies at a fixed *distance* from the features: turn `k` is the level curve
+//! `D = w/2 + k w` of the distance `D` to the nearest feature (the hollow features and the
+//! wall). Inside the cell of feature `i`, `D` is the distance to feature `i`, so a turn is the
+//! cell's MCLs cut at one distance from their feature; at a bisector it meets the neighbouring
+//! cell's turn of the same distance (the bisector is where the two distances agree), so the
+//! cells' turns join where they touch; near the wall the turns follow the wall.
+//!
+//! Adjacent turns are exactly a road width apart, so they neither overlap nor leave gaps. The
+//! turns are closed loops; two loops a road width apart are joined into one by cutting a
+//! road-width gap into each at a place where they run side by side and bridging the gaps
+//! (two short roads across, like one step of a zigzag). Joining the loops along a spanning tree
+//! of their side-by-side adjacency makes one closed road: the whole layer is one extrusion
+//! start. Only loops that touch no other loop (none on the reference slices) are reached by
+//! travel, and counted as jumps.
+//!
+//! The loops are traced by marching squares on a grid of `D` and each point is put exactly on
+//! its level by Newton steps along the distance gradient. The composition at every vertex is
+//! the plan's blended field ([`BlendedField`]): exactly a feature's material on its keep-out
+//! curve.
+
+use heapless::Vec;
+
+use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
+use crate::geometry::{polygon, Grid, Point};
+use crate::toolpath::composition::BlendedField;
+use crate::toolpath::{emit_move, PathSink, Vertex};
+use crate::{Error, Limit, Material, Plan, Slice};
+
+/// How far beyond the keep-out curve the first turn lies, mm: the chords of a turn may cut
+/// that far into it without touching a feature's keep-out band.
+const FIRST_TURN_MARGIN: f32 = 3e-3;
+/// Largest deviation of a simplified turn from the traced one, mm.
+const SIMPLIFY_TOL: f32 = 2e-3;
+/// Loops shorter than this many road widths are too small to turn in and are left out.
+const MIN_LOOP_ROADS: f32 = 2.5;
+/// How far (road widths) a loop's point, stepped a road width down the distance gradient, may
+/// land from the loop below for the two to count as side by side.
+const STRICT_TOL: f32 = 0.05;
+/// The same, for the second try at loops that no strict join reaches.
+const RELAXED_TOL: f32 = 0.3;
+
+/// Counters of an offset-spiral layer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OffsetStats {
+    /// Turns (distance levels) laid.
+    pub levels: u16,
+    /// Closed loops traced over all levels.
+    pub loops: u16,
+    /// Loops joined to a neighbour by a bridge (each one saves an extrusion start).
+    pub joins: u16,
+    /// Loops reached by travel because they touch no loop already in the road.
+    pub jumps: u16,
+    /// Loops too small to turn in, left out.
+    pub dropped: u16,
+}
+
+/// One traced loop: a run of `points`, closed.
+#[derive(Clone, Copy, Debug)]
+struct Loop {
+    start: u16,
+    len: u16,
+    level: u16,
+    length: f32,
+    bbox: (Point, Point),
+    /// The site that joins it to the loop it was reached from (`NONE` for a root).
+    parent: u16,
+    visited: bool,
+}
+
+/// A join of two loops `a` and `b` running side by side: the gap `[a1, a2]` (arc length, in
+/// `a`'s direction) faces the gap `[b1, b2]` on `b`; bridges `a1-b1` and `a2-b2`.
+#[derive(Clone, Copy, Debug)]
+struct Site {
+    a: u16,
+    a1: f32,
+    a2: f32,
+    b: u16,
+    b1: f32,
+    b2: f32,
+}
+
+/// A loop being walked: where the walk is, which way, how much is left, and the site it was
+/// entered by (not to be taken again).
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    lp: u16,
+    pos: f32,
+    forward: bool,
+    remaining: f32,
+    entered_by: u16,
+}
+
+const NONE: u16 = u16::MAX;
+
+/// The offset spiral's working memory (about 150 KiB: the distance grid and the loops), meant
+/// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
+///
+/// ```
+/// use hollowpath::geometry::Point;
+/// use hollowpath::toolpath::offset::OffsetSpiral;
+/// use hollowpath::toolpath::Vertex;
+/// use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
+/// let circle = |c: Point, r: f32, n: usize| -> Vec<Point> {
+///     (0..n).map(|k| {
+///         let a = k as f32 / n as f32 * std::f32::consts::TAU;
+///         Point::new(c.x + r * a.cos(), c.y + r * a.sin())
+///     }).collect()
+/// };
+/// let wall = Feature::new(FeatureId::Wall, &circle(Point::new(0.0, 0.0), 8.0, 64), [1.0, 0.0, 0.0, 0.0]).unwrap();
+/// let hole = Feature::new(FeatureId::Hole(0), &circle(Point::new(0.5, 0.0), 4.0, 48), [0.0, 1.0, 0.0, 0.0]).unwrap();
+/// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
+/// let plan = Box::new(Planner::new()).plan(&slice).unwrap().clone();
+/// let mut work = Box::new(OffsetSpiral::new());
+/// let mut path: Vec<Vertex> = Vec::new();
+/// let stats = work.build(&slice, &plan, &mut path).unwrap();
+/// // One road: the first vertex is reached by travel, every later move deposits.
+/// assert!(path[1..].iter().all(|v| v.deposit));
+/// assert_eq!(stats.jumps, 0);
+/// ```
+pub struct OffsetSpiral {
+    grid: Grid,
+    d: Vec<f32, GRID_NODES>,
+    marks: Vec<u8, GRID_NODES>,
+    points: Vec<Point, CONTOUR_POINTS>,
+    arc: Vec<f32, CONTOUR_POINTS>,
+    loops: Vec<Loop, MAX_LOOPS>,
+    sites: Vec<Site, MAX_SITES>,
+    stack: Vec<Frame, MAX_LOOPS>,
+    queue: Vec<u16, MAX_LOOPS>,
+}
+
+impl Default for OffsetSpiral {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The distance `D` from `p` to the nearest feature (positive in the material), its gradient,
+/// and the material of that feature.
+fn distance(slice: &Slice, p: Point) -> (f32, Point, Material) {
+    let nw = slice.wall().nearest(p);
+    let mut best = (-nw.distance, -nw.gradient(p), slice.wall().material());
+    for h in slice.holes() {
+        if polygon::bbox_distance(h.bbox(), p) >= best.0 {
+            continue;
+        }
+        let n = h.nearest(p);
+        if n.distance < best.0 {
+            best = (n.distance, n.gradient(p), h.material());
+        }
+    }
+    best
+}
+
+/// `x` wrapped into `[0, len)`.
+fn wrap(x: f32, len: f32) -> f32 {
+    let r = libm::fmodf(x, len);
+    if r < 0.0 {
+        r + len
+    } else {
+        r
+    }
+}
+
+fn capacity(limit: Limit) -> Error {
+    Error::Capacity {
+        limit,
+        feature: None,
+    }
+}
+
+impl OffsetSpiral {
+    /// Empty working memory (no allocation: the buffers are inline).
+    pub const fn new() -> OffsetSpiral {
+        OffsetSpiral {
+            grid: Grid {
+                origin: Point::new(0.0, 0.0),
+                h: 0.0,
+                nx: 0,
+                ny: 0,
+            },
+            d: Vec::new(),
+            marks: Vec::new(),
+            points: Vec::new(),
+            arc: Vec::new(),
+            loops: Vec::new(),
+            sites: Vec::new(),
+            stack: Vec::new(),
+            queue: Vec::new(),
+        }
+    }
+
+    /// Writes the offset-spiral layer of `slice` into `sink`, with the composition of
+    /// `plan`'s blended field.
+    pub fn build(
+        &mut self,
+        slice: &Slice,
+        plan: &Plan,
+        sink: &mut impl PathSink,
+    ) -> Result<OffsetStats, Error> {
+        let mut stats = OffsetStats::default();
+        self.sample(slice)?;
+        self.trace_all(slice, &mut stats)?;
+        self.join(slice, &mut stats)?;
+        self.walk_all(slice, plan, sink, &mut stats)?;
+        Ok(stats)
+    }
+
+    /// Samples `D` on a grid over the wall, half a road width apart or coarser.
+    fn sample(&mut self, slice: &Slice) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let (lo, hi) = slice.wall().bbox();
+        self.grid = Grid::covering(lo, hi, 0.5 * w, GRID_NODES);
+        if self.grid.h > crate::config::MAX_GRID_SPACING_PER_ROAD * w {
+            return Err(capacity(Limit::GridNodes));
+        }
+        self.d.clear();
+        self.marks.clear();
+        for k in 0..self.grid.len() {
+            let (d, _, _) = distance(slice, self.grid.node(k));
+            self.d.push(d).map_err(|_| capacity(Limit::GridNodes))?;
+            self.marks.push(0).map_err(|_| capacity(Limit::GridNodes))?;
+        }
+        Ok(())
+    }
+
+    /// Traces the loops of every level `w/2 + k w` that some node reaches.
+    fn trace_all(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let top = self.d.iter().fold(0.0f32, |a, &b| a.max(b));
+        self.points.clear();
+        self.arc.clear();
+        self.loops.clear();
+        let mut k = 0u16;
+        loop {
+            let level = 0.5 * w + FIRST_TURN_MARGIN + k as f32 * w;
+            if level >= top {
+                break;
+            }
+            for m in self.marks.iter_mut() {
+                *m = 0;
+            }
+            let (nx, ny) = (self.grid.nx, self.grid.ny);
+            for j in 0..ny - 1 {
+                for i in 0..nx - 1 {
+                    for e in 0..4u8 {
+                        let c = j * nx + i;
+                        if self.is_entry(c, e, level) && self.marks[c] & (1 << e) == 0 {
+                            self.trace(slice, c, e, level, k, stats)?;
+                        }
+                    }
+                }
+            }
+            k += 1;
+        }
+        stats.levels = k;
+        Ok(())
+    }
+
+    /// Values at the corners of cell `c` (lower-left node `c`), counter-clockwise.
+    fn corners(&self, c: usize) -> [f32; 4] {
+        let nx = self.grid.nx;
+        [self.d[c], self.d[c + 1], self.d[c + nx + 1], self.d[c + nx]]
+    }
+
+    /// Whether the level curve enters cell `c` through edge `e` (corner `e` above the level,
+    /// corner `e + 1` below: the material above the level stays on the curve's left).
+    fn is_entry(&self, c: usize, e: u8, level: f32) -> bool {
+        let v = self.corners(c);
+        v[e as usize] > level && v[(e as usize + 1) % 4] <= level
+    }
+
+    /// The edge the curve entering cell `c` through `e` leaves by.
+    fn exit(&self, c: usize, e: u8, level: f32) -> u8 {
+        let v = self.corners(c);
+        let above = |k: usize| v[k % 4] > level;
+        let saddle = above(0) == above(2) && above(1) == above(3) && above(0) != above(1);
+        if saddle {
+            let centre = 0.25 * (v[0] + v[1] + v[2] + v[3]);
+            return if centre > level {
+                (e + 1) % 4
+            } else {
+                (e + 3) % 4
+            };
+        }
+        (0..4u8)
+            .find(|&x| !above(x as usize) && above(x as usize + 1))
+            .unwrap_or((e + 1) % 4)
+    }
+
+    /// The point where the level crosses edge `e` of cell `c`, put onto the level exactly.
+    fn crossing(&self, slice: &Slice, c: usize, e: u8, level: f32) -> Point {
+        let nx = self.grid.nx;
+        let node = [c, c + 1, c + nx + 1, c + nx];
+        let (a, b) = (node[e as usize], node[(e as usize + 1) % 4]);
+        let (da, db) = (self.d[a], self.d[b]);
+        let t = ((level - da) / (db - da)).clamp(0.0, 1.0);
+        let p0 = self.grid.node(a).lerp(self.grid.node(b), t);
+        let mut p = p0;
+        for _ in 0..4 {
+            let (d, g, _) = distance(slice, p);
+            let step = level - d;
+            p = p + g * step;
+            if step.abs() < 1e-6 {
+                break;
+            }
+        }
+        // A step that ran off (near a ridge of D) keeps the interpolated point.
+        if p.dist(p0) > self.grid.h || !p.is_finite() {
+            p0
+        } else {
+            p
+        }
+    }
+
+    /// Traces one loop from cell `c0`, entry edge `e0`, simplifies it and records it.
+    fn trace(
+        &mut self,
+        slice: &Slice,
+        c0: usize,
+        e0: u8,
+        level: f32,
+        k: u16,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let start = self.points.len();
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
+        let (mut c, mut e) = (c0, e0);
+        for _ in 0..4 * self.grid.len() {
+            self.marks[c] |= 1 << e;
+            let x = self.exit(c, e, level);
+            let p = self.crossing(slice, c, x, level);
+            if self.points.last() != Some(&p) {
+                self.points
+                    .push(p)
+                    .map_err(|_| capacity(Limit::ContourPoints))?;
+            }
+            let (i, j) = (c % nx, c / nx);
+            let next = match x {
+                0 if j > 0 => c - nx,
+                1 if i + 2 < nx => c + 1,
+                2 if j + 2 < ny => c + nx,
+                3 if i > 0 => c - 1,
+                // The grid has a border of nodes outside the wall, below every level.
+                _ => break,
+            };
+            c = next;
+            e = (x + 2) % 4;
+            if c == c0 && e == e0 {
+                break;
+            }
+        }
+        let len = simplify_closed(&mut self.points, start, SIMPLIFY_TOL);
+        self.points.truncate(start + len);
+        stats.loops += 1;
+        // Arc lengths and box.
+        let pts = &self.points[start..];
+        let mut s = 0.0;
+        let mut bbox = (pts[0], pts[0]);
+        self.arc.truncate(start);
+        for (m, &p) in pts.iter().enumerate() {
+            if m > 0 {
+                s += pts[m - 1].dist(p);
+            }
+            bbox = (
+                Point::new(bbox.0.x.min(p.x), bbox.0.y.min(p.y)),
+                Point::new(bbox.1.x.max(p.x), bbox.1.y.max(p.y)),
+            );
+            self.arc
+                .push(s)
+                .map_err(|_| capacity(Limit::ContourPoints))?;
+        }
+        let length = s + pts[pts.len() - 1].dist(pts[0]);
+        if pts.len() < 3 || length < MIN_LOOP_ROADS * w {
+            self.points.truncate(start);
+            self.arc.truncate(start);
+            stats.dropped += 1;
+            return Ok(());
+        }
+        self.loops
+            .push(Loop {
+                start: start as u16,
+                len: len as u16,
+                level: k,
+                length,
+                bbox,
+                parent: NONE,
+                visited: false,
+            })
+            .map_err(|_| capacity(Limit::ContourLoops))
+    }
+
+    fn pts(&self, l: usize) -> &[Point] {
+        let lp = &self.loops[l];
+        &self.points[lp.start as usize..(lp.start + lp.len) as usize]
+    }
+
+    fn arcs(&self, l: usize) -> &[f32] {
+        let lp = &self.loops[l];
+        &self.arc[lp.start as usize..(lp.start + lp.len) as usize]
+    }
+
+    /// The point of loop `l` at arc length `s`.
+    fn at(&self, l: usize, s: f32) -> Point {
+        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let len = self.loops[l].length;
+        let s = wrap(s, len);
+        let k = arc.partition_point(|&a| a <= s).max(1) - 1;
+        let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+        let (sa, sb) = (arc[k], if k + 1 < arc.len() { arc[k + 1] } else { len });
+        let t = if sb > sa { (s - sa) / (sb - sa) } else { 0.0 };
+        a.lerp(b, t.clamp(0.0, 1.0))
+    }
+
+    /// The arc length of the point of loop `l` nearest `p`, and the distance.
+    fn project(&self, l: usize, p: Point) -> (f32, f32) {
+        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let len = self.loops[l].length;
+        let n = pts.len();
+        let mut best = (0.0, f32::INFINITY);
+        for k in 0..n {
+            let (a, b) = (pts[k], pts[(k + 1) % n]);
+            let (q, t) = crate::geometry::polyline::closest_on_segment(a, b, p);
+            let d = q.dist(p);
+            if d < best.1 {
+                let sb = if k + 1 < n { arc[k + 1] } else { len };
+                best = (arc[k] + t * (sb - arc[k]), d);
+            }
+        }
+        best
+    }
+
+    /// The loop one level below `l` that the point `p` of `l` faces a road width away, with
+    /// the arc length there.
+    /// `tol` is how far (in road widths) from the lower loop the back-projection may land.
+    fn below(&self, slice: &Slice, l: usize, p: Point, tol: f32) -> Option<(usize, f32)> {
+        let w = slice.settings().road_width;
+        let level = self.loops[l].level;
+        if level == 0 {
+            return None;
+        }
+        let (_, g, _) = distance(slice, p);
+        let q = p - g * w;
+        let tol = tol * w;
+        let mut best: Option<(usize, f32, f32)> = None;
+        for (m, lp) in self.loops.iter().enumerate() {
+            if lp.level + 1 != level || polygon::bbox_distance(lp.bbox, q) > tol {
+                continue;
+            }
+            let (s, d) = self.project(m, q);
+            if d < tol && best.is_none_or(|b| d < b.2) {
+                best = Some((m, s, d));
+            }
+        }
+        best.map(|(m, s, _)| (m, s))
+    }
+
+    /// Whether `[s1, s2]` (forward, on loop `l`) keeps `margin` clear of every site on `l`.
+    fn free(&self, l: usize, s1: f32, s2: f32, margin: f32) -> bool {
+        let len = self.loops[l].length;
+        let span = wrap(s2 - s1, len) + 2.0 * margin;
+        if span >= len {
+            return false;
+        }
+        let lo = s1 - margin;
+        self.sites.iter().all(|st| {
+            let (t1, t2) = if st.a as usize == l {
+                (st.a1, st.a2)
+            } else if st.b as usize == l {
+                (st.b1, st.b2)
+            } else {
+                return true;
+            };
+            // Two arcs of the loop overlap if either starts inside the other.
+            let other = wrap(t2 - t1, len);
+            wrap(t1 - lo, len) > span && wrap(lo - t1, len) > other
+        })
+    }
+
+    /// A place where loop `a` (one level above) runs a road width from loop `b` for long
+    /// enough to bridge, clear of the other joins on both. `relaxed` is the second try for a
+    /// loop no strict site reaches (small loops at a peak of `D`, where the turns below are
+    /// not parallel to it): it checks only the gap, with a looser tolerance.
+    fn find_site(&self, slice: &Slice, a: usize, b: usize, relaxed: bool) -> Option<Site> {
+        let w = slice.settings().road_width;
+        let len = self.loops[a].length;
+        let lenb = self.loops[b].length;
+        let steps = libm::floorf(len / (0.25 * w)) as usize;
+        for k in 0..steps {
+            let s0 = k as f32 * 0.25 * w;
+            let (a1, a2) = (s0, wrap(s0 + w, len));
+            if !self.free(a, a1, a2, 0.5 * w) {
+                continue;
+            }
+            // The gap and half a road either side must face `b` a road width away.
+            let mut prev: Option<f32> = None;
+            let mut ok = true;
+            let mut ends = (0.0, 0.0);
+            let (offsets, tol) = if relaxed {
+                ([f32::NAN, 0.0, 0.5, 1.0, f32::NAN], RELAXED_TOL)
+            } else {
+                ([-0.5f32, 0.0, 0.5, 1.0, 1.5], STRICT_TOL)
+            };
+            for (m, off) in offsets.iter().enumerate() {
+                if off.is_nan() {
+                    continue;
+                }
+                let p = self.at(a, s0 + off * w);
+                match self.below(slice, a, p, tol) {
+                    Some((m2, t)) if m2 == b => {
+                        if let Some(pt) = prev {
+                            let step = wrap(t - pt, lenb);
+                            if !(0.1 * w..1.5 * w).contains(&step) {
+                                ok = false;
+                                break;
+                            }
+                        }
+                        prev = Some(t);
+                        if m == 1 {
+                            ends.0 = t;
+                        } else if m == 3 {
+                            ends.1 = t;
+                        }
+                    }
+                    _ => {
+                        ok = false;
+                        break;
+                    }
+                }
+            }
+            if ok && self.free(b, ends.0, ends.1, 0.5 * w) {
+                return Some(Site {
+                    a: a as u16,
+                    a1,
+                    a2,
+                    b: b as u16,
+                    b1: ends.0,
+                    b2: ends.1,
+                });
+            }
+        }
+        None
+    }
+
+    /// Joins the loops along a spanning tree of their side-by-side adjacency, breadth first
+    /// from the wall's first turn.
+    fn join(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        self.sites.clear();
+        let n = self.loops.len();
+        // Adjacency by sampling each loop and looking one level down.
+        let mut pairs: Vec<(u16, u16, u16), MAX_SITES> = Vec::new();
+        for a in 0..n {
+            let len = self.loops[a].length;
+            let steps = libm::ceilf(len / (0.5 * w)) as usize;
+            for k in 0..steps {
+                let p = self.at(a, k as f32 * 0.5 * w);
+                if let Some((b, _)) = self.below(slice, a, p, STRICT_TOL) {
+                    if let Some(e) = pairs
+                        .iter_mut()
+                        .find(|e| e.0 as usize == a && e.1 as usize == b)
+                    {
+                        e.2 += 1;
+                    } else {
+                        pairs
+                            .push((a as u16, b as u16, 1))
+                            .map_err(|_| capacity(Limit::ContourSites))?;
+                    }
+                }
+            }
+        }
+        // Longest contact first: those have the most room for a site.
+        pairs.sort_unstable_by(|x, y| y.2.cmp(&x.2).then(x.0.cmp(&y.0)).then(x.1.cmp(&y.1)));
+        for l in self.loops.iter_mut() {
+            l.visited = false;
+            l.parent = NONE;
+        }
+        // Roots: the longest loop of level 0 first (the wall's first turn), then any loop
+        // left unreached.
+        let mut first = true;
+        loop {
+            // Loops no strict join reached: try a relaxed join to any reached loop a level
+            // away before starting a new road.
+            if !first {
+                if let Some((other, site)) = self.relaxed_join(slice, w) {
+                    self.sites
+                        .push(site)
+                        .map_err(|_| capacity(Limit::ContourSites))?;
+                    let lo = &mut self.loops[other];
+                    lo.visited = true;
+                    lo.parent = (self.sites.len() - 1) as u16;
+                    stats.joins += 1;
+                    self.bfs(slice, &pairs, other, stats)?;
+                    continue;
+                }
+            }
+            first = false;
+            let root = (0..n).filter(|&l| !self.loops[l].visited).min_by(|&x, &y| {
+                let (lx, ly) = (&self.loops[x], &self.loops[y]);
+                lx.level
+                    .cmp(&ly.level)
+                    .then(ly.length.total_cmp(&lx.length))
+                    .then(x.cmp(&y))
+            });
+            let Some(root) = root else { break };
+            self.loops[root].visited = true;
+            self.bfs(slice, &pairs, root, stats)?;
+        }
+        Ok(())
+    }
+
+    /// Joins every loop reachable from `start` (already reached) by strict sites, breadth first.
+    fn bfs(
+        &mut self,
+        slice: &Slice,
+        pairs: &[(u16, u16, u16)],
+        start: usize,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        self.queue.clear();
+        let _ = self.queue.push(start as u16);
+        let mut head = 0;
+        while head < self.queue.len() {
+            let l = self.queue[head] as usize;
+            head += 1;
+            for &(a, b, _) in pairs.iter() {
+                let (a, b) = (a as usize, b as usize);
+                let other = if a == l {
+                    b
+                } else if b == l {
+                    a
+                } else {
+                    continue;
+                };
+                if self.loops[other].visited {
+                    continue;
+                }
+                if let Some(site) = self.find_site(slice, a, b, false) {
+                    self.sites
+                        .push(site)
+                        .map_err(|_| capacity(Limit::ContourSites))?;
+                    let lo = &mut self.loops[other];
+                    lo.visited = true;
+                    lo.parent = (self.sites.len() - 1) as u16;
+                    stats.joins += 1;
+                    self.queue
+                        .push(other as u16)
+                        .map_err(|_| capacity(Limit::ContourLoops))?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A relaxed site between a loop not yet reached and a reached loop one level away
+    /// (within two road widths of it), with the loop it reaches.
+    fn relaxed_join(&self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
+        let n = self.loops.len();
+        for u in (0..n).filter(|&u| !self.loops[u].visited) {
+            for v in (0..n).filter(|&v| self.loops[v].visited) {
+                let (lu, lv) = (&self.loops[u], &self.loops[v]);
+                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).max(lv.bbox.0.x - lu.bbox.1.x);
+                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).max(lv.bbox.0.y - lu.bbox.1.y);
+                if gap_x.max(gap_y) > 2.0 * w {
+                    continue;
+                }
+                let site = if lu.level == lv.level + 1 {
+                    self.find_site(slice, u, v, true)
+                } else if lv.level == lu.level + 1 {
+                    self.find_site(slice, v, u, true)
+                } else {
+                    None
+                };
+                if let Some(site) = site {
+                    return Some((u, site));
+                }
+            }
+        }
+        None
+    }
+
+    /// The vertex at `p`, with its composition.
+    fn vertex(slice: &Slice, field: &BlendedField, p: Point, deposit: bool) -> Vertex {
+        let half = 0.5 * slice.settings().road_width;
+        let (d, _, m) = distance(slice, p);
+        let material = if d < half + 2.0 * FIRST_TURN_MARGIN {
+            m
+        } else {
+            field.at(p).unwrap_or(m)
+        };
+        Vertex {
+            at: p,
+            material,
+            deposit,
+        }
+    }
+
+    /// Walks loop `l` from arc length `s` for `dist` in the given direction, emitting the
+    /// loop's points on the way and the end point.
+    #[allow(clippy::too_many_arguments)]
+    fn walk(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        sink: &mut impl PathSink,
+        l: usize,
+        s: f32,
+        dist: f32,
+        forward: bool,
+    ) -> Result<(), Error> {
+        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let len = self.loops[l].length;
+        let n = pts.len();
+        let s = wrap(s, len);
+        let mut k = if forward {
+            arc.partition_point(|&a| a <= s) % n
+        } else {
+            (arc.partition_point(|&a| a < s) + n - 1) % n
+        };
+        for _ in 0..n {
+            let along = if forward {
+                wrap(arc[k] - s, len)
+            } else {
+                wrap(s - arc[k], len)
+            };
+            if along >= dist - 1e-5 {
+                break;
+            }
+            if along > 1e-5 {
+                emit_move(slice, sink, Self::vertex(slice, field, pts[k], true))?;
+            }
+            k = if forward {
+                (k + 1) % n
+            } else {
+                (k + n - 1) % n
+            };
+        }
+        let end = if forward { s + dist } else { s - dist };
+        emit_move(
+            slice,
+            sink,
+            Self::vertex(slice, field, self.at(l, end), true),
+        )
+    }
+
+    /// The ends of `site` on loop `l`: `(own gap start, own gap end, other loop, other's gap
+    /// start, other's gap end)`.
+    fn site_on(&self, site: usize, l: usize) -> (f32, f32, usize, f32, f32) {
+        let st = &self.sites[site];
+        if st.a as usize == l {
+            (st.a1, st.a2, st.b as usize, st.b1, st.b2)
+        } else {
+            (st.b1, st.b2, st.a as usize, st.a1, st.a2)
+        }
+    }
+
+    /// Walks the loops as one road per tree of joins.
+    fn walk_all(
+        &mut self,
+        slice: &Slice,
+        plan: &Plan,
+        sink: &mut impl PathSink,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        let field = BlendedField::new(slice, plan);
+        let roots: Vec<u16, MAX_LOOPS> = (0..self.loops.len())
+            .filter(|&l| self.loops[l].parent == NONE)
+            .map(|l| l as u16)
+            .collect();
+        for (r, &root) in roots.iter().enumerate() {
+            let root = root as usize;
+            if r > 0 {
+                stats.jumps += 1;
+            }
+            // Start the root where no join is.
+            let len = self.loops[root].length;
+            let mut s0 = 0.0;
+            while s0 < len && !self.free(root, s0, s0, 0.0) {
+                s0 += 0.1 * slice.settings().road_width;
+            }
+            emit_move(
+                slice,
+                sink,
+                Self::vertex(slice, &field, self.at(root, s0), false),
+            )?;
+            self.stack.clear();
+            let _ = self.stack.push(Frame {
+                lp: root as u16,
+                pos: s0,
+                forward: true,
+                remaining: len,
+                entered_by: NONE,
+            });
+            while let Some(top) = self.stack.last().copied() {
+                let l = top.lp as usize;
+                let len = self.loops[l].length;
+                // The nearest join ahead on this loop, other than the one it was entered by.
+                let mut next: Option<(f32, usize)> = None;
+                for (si, st) in self.sites.iter().enumerate() {
+                    if si == top.entered_by as usize || (st.a != top.lp && st.b != top.lp) {
+                        continue;
+                    }
+                    let (x1, x2, _, _, _) = self.site_on(si, l);
+                    let ahead = if top.forward {
+                        wrap(x1 - top.pos, len)
+                    } else {
+                        wrap(top.pos - x2, len)
+                    };
+                    if ahead < top.remaining && next.is_none_or(|n| ahead < n.0) {
+                        next = Some((ahead, si));
+                    }
+                }
+                match next {
+                    Some((ahead, si)) => {
+                        self.walk(slice, &field, sink, l, top.pos, ahead, top.forward)?;
+                        let (x1, x2, child, y1, y2) = self.site_on(si, l);
+                        let gap = wrap(x2 - x1, len);
+                        let child_gap = wrap(y2 - y1, self.loops[child].length);
+                        let (resume, enter) = if top.forward { (x2, y1) } else { (x1, y2) };
+                        if let Some(f) = self.stack.last_mut() {
+                            f.pos = resume;
+                            f.remaining -= ahead + gap;
+                        }
+                        // The bridge across.
+                        emit_move(
+                            slice,
+                            sink,
+                            Self::vertex(slice, &field, self.at(child, enter), true),
+                        )?;
+                        self.stack
+                            .push(Frame {
+                                lp: child as u16,
+                                pos: enter,
+                                forward: !top.forward,
+                                remaining: self.loops[child].length - child_gap,
+                                entered_by: si as u16,
+                            })
+                            .map_err(|_| capacity(Limit::ContourLoops))?;
+                    }
+                    None => {
+                        self.walk(slice, &field, sink, l, top.pos, top.remaining, top.forward)?;
+                        self.stack.pop();
+                        // The bridge back.
+                        if let Some(f) = self.stack.last() {
+                            let p = self.at(f.lp as usize, f.pos);
+                            emit_move(slice, sink, Self::vertex(slice, &field, p, true))?;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Simplifies the closed polyline `pts[start..]` in place, keeping every point whose removal
+/// would move the curve more than `tol`; returns how many points remain.
+fn simplify_closed<const N: usize>(pts: &mut Vec<Point, N>, start: usize, tol: f32) -> usize {
+    let n = pts.len() - start;
+    if n < 4 {
+        return n;
+    }
+    let mut out = start + 1;
+    let mut anchor = start;
+    let mut k = start + 1;
+    while k < pts.len() {
+        // Extend the chord from the anchor as far as every skipped point stays within `tol`.
+        let mut end = k;
+        while end + 1 < pts.len() && end + 1 - anchor <= 64 {
+            let (a, b) = (pts[anchor], pts[end + 1]);
+            let fits = (anchor + 1..=end).all(|m| {
+                let (q, _) = crate::geometry::polyline::closest_on_segment(a, b, pts[m]);
+                q.dist(pts[m]) <= tol
+            });
+            if !fits {
+                break;
+            }
+            end += 1;
+        }
+        pts[out] = pts[end];
+        out += 1;
+        anchor = end;
+        k = end + 1;
+    }
+    out - start
+}
