@@ -63,7 +63,7 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
             (
                 Pattern::Spiral,
                 format!(
-                    "spiral (offset): {} turns, {} loops joined by {} bridges, {} jump(s){}, {} loop(s) too small to turn in",
+                    "spiral (offset): {} turns, {} loops joined by {} bridges, {} jump(s){}, {} small loop(s) left out",
                     s.levels,
                     s.loops,
                     s.joins,
