@@ -603,13 +603,7 @@ impl OffsetSpiral {
             // away before starting a new road.
             if !first {
                 if let Some((other, site)) = self.relaxed_join(slice, w) {
-                    self.sites
-                        .push(site)
-                        .map_err(|_| capacity(Limit::ContourSites))?;
-                    let lo = &mut self.loops[other];
-                    lo.visited = true;
-                    lo.parent = (self.sites.len() - 1) as u16;
-                    stats.joins += 1;
+                    self.attach(other, site, stats)?;
                     self.bfs(slice, &pairs, other, stats)?;
                     continue;
                 }
@@ -628,6 +622,18 @@ impl OffsetSpiral {
             self.loops[root].visited = true;
             self.bfs(slice, &pairs, root, stats)?;
         }
+        Ok(())
+    }
+
+    /// Records `site` as the join that reaches loop `other`.
+    fn attach(&mut self, other: usize, site: Site, stats: &mut OffsetStats) -> Result<(), Error> {
+        self.sites
+            .push(site)
+            .map_err(|_| capacity(Limit::ContourSites))?;
+        let lo = &mut self.loops[other];
+        lo.visited = true;
+        lo.parent = (self.sites.len() - 1) as u16;
+        stats.joins += 1;
         Ok(())
     }
 
@@ -658,13 +664,7 @@ impl OffsetSpiral {
                     continue;
                 }
                 if let Some(site) = self.find_site(slice, a, b, false) {
-                    self.sites
-                        .push(site)
-                        .map_err(|_| capacity(Limit::ContourSites))?;
-                    let lo = &mut self.loops[other];
-                    lo.visited = true;
-                    lo.parent = (self.sites.len() - 1) as u16;
-                    stats.joins += 1;
+                    self.attach(other, site, stats)?;
                     self.queue
                         .push(other as u16)
                         .map_err(|_| capacity(Limit::ContourLoops))?;
