@@ -57,7 +57,7 @@ const RELAXED_TOL: f32 = 0.3;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct OffsetStats {
-    /// Turns (distance levels) laid.
+    /// Distance levels traced (the top one may hold only small loops that were left out).
     pub levels: u16,
     /// Closed loops traced over all levels.
     pub loops: u16,
@@ -596,19 +596,9 @@ impl OffsetSpiral {
             l.parent = NONE;
         }
         // Roots: the longest loop of level 0 first (the wall's first turn), then any loop
-        // left unreached.
-        let mut first = true;
+        // left unreached. After each tree, loops no strict join reached get a relaxed join to
+        // any reached loop a level away before a new road is started.
         loop {
-            // Loops no strict join reached: try a relaxed join to any reached loop a level
-            // away before starting a new road.
-            if !first {
-                if let Some((other, site)) = self.relaxed_join(slice, w) {
-                    self.attach(other, site, stats)?;
-                    self.bfs(slice, &pairs, other, stats)?;
-                    continue;
-                }
-            }
-            first = false;
             let root = (0..n)
                 .filter(|&l| !self.loops[l].visited && !self.loops[l].optional)
                 .min_by(|&x, &y| {
@@ -621,6 +611,10 @@ impl OffsetSpiral {
             let Some(root) = root else { break };
             self.loops[root].visited = true;
             self.bfs(slice, &pairs, root, stats)?;
+            while let Some((other, site)) = self.relaxed_join(slice, w) {
+                self.attach(other, site, stats)?;
+                self.bfs(slice, &pairs, other, stats)?;
+            }
         }
         Ok(())
     }
