@@ -90,4 +90,8 @@ pub mod defaults {
     pub const RELAX_ITERATIONS: u8 = 8;
     /// Spacing between MCLs along a feature, as a multiple of the road width.
     pub const MCL_SPACING_PER_ROAD: f32 = 1.0;
+    /// The narrowest road, as a multiple of the road width.
+    pub const MIN_WIDTH_PER_ROAD: f32 = 0.5;
+    /// The widest road, as a multiple of the road width.
+    pub const MAX_WIDTH_PER_ROAD: f32 = 1.6;
 }

@@ -45,6 +45,10 @@ pub enum SettingId {
     MclSpacing,
     /// `relax_spacing`
     RelaxSpacing,
+    /// `min_width`
+    MinWidth,
+    /// `max_width`
+    MaxWidth,
     /// `relax_iterations`
     RelaxIterations,
 }
@@ -60,6 +64,8 @@ impl SettingId {
             SettingId::Delta => "delta",
             SettingId::MclSpacing => "mcl_spacing",
             SettingId::RelaxSpacing => "relax_spacing",
+            SettingId::MinWidth => "min_width",
+            SettingId::MaxWidth => "max_width",
             SettingId::RelaxIterations => "relax_iterations",
         }
     }

@@ -11,6 +11,8 @@
 //!
 //! ```text
 //! slice ──► field + cells ──► MCLs: insert ──► match (Algorithm I) ──► relax ──► Plan
+//!                                                                      │
+//!                 layers of Vertex (position, composition, road width) ◄┘ toolpath
 //! ```
 //!
 //! * [`slice`](mod@slice): the validated [`Slice`] (wall, hollow features, materials, [`Settings`]).
@@ -32,6 +34,13 @@
 //!   alone.
 //! * [`plan`]: the [`Planner`] that runs the journey with its working memory inline, and the
 //!   resulting [`Plan`].
+//! * [`toolpath`]: the layers drawn from a plan, vertex by vertex into a
+//!   [`PathSink`](toolpath::PathSink): the zigzag along the MCLs, the spirals across them (the
+//!   paper's, and the offset spiral with turns a road width apart), the raster baseline. Every
+//!   vertex carries its composition (blended along the MCLs) and its road width: a layer
+//!   widens or narrows its roads, within [`Settings::min_width`] .. [`Settings::max_width`], so
+//!   that neighbouring roads meet without gap or overlap where MCLs fan out or turns leave a
+//!   sliver, and never wider than twice the clearance from the features.
 //!
 //! Below them, [`geometry`] holds points, polygons, polylines and the grid; [`error`] the one
 //! error type. Logging goes through the private `fmt` macros: `defmt` with the `defmt` feature,

@@ -241,6 +241,14 @@ pub struct Settings {
     /// `relax_spacing`: the least distance between MCL ends on the cell boundary after
     /// relaxation, mm (default 1 road width).
     pub relax_spacing: f32,
+    /// `min_width`: the narrowest road a layer may deposit, mm (default 0.5 road widths; at
+    /// most the road width). Where neighbouring roads converge, a road narrows to their
+    /// spacing down to this, rather than piling onto them.
+    pub min_width: f32,
+    /// `max_width`: the widest road a layer may deposit, mm (default 1.6 road widths; from the
+    /// road width to 3 road widths). Where neighbouring roads diverge, a road widens to their
+    /// spacing up to this, rather than leaving a gap.
+    pub max_width: f32,
 }
 
 impl Settings {
@@ -255,6 +263,8 @@ impl Settings {
             mcl_spacing: defaults::MCL_SPACING_PER_ROAD * road_width,
             relax_iterations: defaults::RELAX_ITERATIONS,
             relax_spacing: road_width,
+            min_width: defaults::MIN_WIDTH_PER_ROAD * road_width,
+            max_width: defaults::MAX_WIDTH_PER_ROAD * road_width,
         }
     }
 
@@ -296,6 +306,16 @@ impl Settings {
                 SettingId::RelaxSpacing,
                 self.relax_spacing,
                 self.relax_spacing > 0.0 && self.relax_spacing <= 4.0 * self.road_width,
+            ),
+            (
+                SettingId::MinWidth,
+                self.min_width,
+                self.min_width > 0.0 && self.min_width <= self.road_width,
+            ),
+            (
+                SettingId::MaxWidth,
+                self.max_width,
+                self.max_width >= self.road_width && self.max_width <= 3.0 * self.road_width,
             ),
         ];
         if self.relax_iterations > config::MAX_RELAX_ITERATIONS {
@@ -466,7 +486,14 @@ impl Slice {
     /// Whether `p` is in the printable region: inside the wall and outside every hole, half a
     /// road width from each (with a tolerance `tol`).
     pub fn is_printable(&self, p: Point, tol: f32) -> bool {
-        let half = self.settings.road_width * 0.5 - tol;
+        self.fits(p, self.settings.road_width, tol)
+    }
+
+    /// Whether a road `width` wide centred at `p` stays in the material: inside the wall and
+    /// outside every hole, half `width` from each (with a tolerance `tol`). For the road width
+    /// this is [`Slice::is_printable`]; a narrower road may pass nearer a feature.
+    pub fn fits(&self, p: Point, width: f32, tol: f32) -> bool {
+        let half = width * 0.5 - tol;
         self.wall_clearance(p) >= half && self.nearest_holes(p).1 >= half
     }
 
@@ -504,6 +531,57 @@ impl Slice {
                 let d = c.dist(q);
                 if d < clearance && best.is_none_or(|x| d < x.0) {
                     best = Some((d, t, c));
+                }
+            }
+        };
+        for h in self.holes.iter() {
+            let bb = h.bbox;
+            if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
+                consider(&h.points);
+            }
+        }
+        consider(&self.wall.points);
+        best.map(|(_, t, c)| (t, c))
+    }
+
+    /// [`Slice::segment_dip`] for a road whose half-width tapers linearly from `ra` at `a` to
+    /// `rb` at `b`: the point of segment `ab` that comes nearest a feature relative to the
+    /// half-width there (deepest into the road), with its parameter; `None` if every feature
+    /// keeps clear of the road. For a feature vertex `q`, `|s(t) - q| - r(t)` is convex in `t`
+    /// and least where its derivative vanishes, at the plain projection of `q` shifted by
+    /// `k h / sqrt(1 - k^2)` along the segment (`k` the taper's slope, `h` the distance of `q`
+    /// off the line), so each vertex is checked at one point.
+    pub fn tapered_dip(&self, a: Point, b: Point, ra: f32, rb: f32) -> Option<(f32, Point)> {
+        let r = ra.max(rb);
+        let lo = Point::new(a.x.min(b.x) - r, a.y.min(b.y) - r);
+        let hi = Point::new(a.x.max(b.x) + r, a.y.max(b.y) + r);
+        let ab = b - a;
+        let len = ab.norm();
+        let k = if len > 0.0 { (rb - ra) / len } else { 0.0 };
+        let mut best: Option<(f32, f32, Point)> = None;
+        let mut consider = |pts: &[Point]| {
+            for &q in pts {
+                if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
+                    continue;
+                }
+                let t = if len <= 0.0 {
+                    0.0
+                } else if k.abs() >= 1.0 {
+                    // One end's disc holds the other's.
+                    if rb > ra {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    let u = (q - a).dot(ab) / len;
+                    let h = libm::fabsf((q - a).cross(ab)) / len;
+                    ((u + k * h / libm::sqrtf(1.0 - k * k)) / len).clamp(0.0, 1.0)
+                };
+                let c = a + ab * t;
+                let depth = ra + (rb - ra) * t - c.dist(q);
+                if depth > 0.0 && best.is_none_or(|x| depth > x.0) {
+                    best = Some((depth, t, c));
                 }
             }
         };

@@ -2,7 +2,9 @@
 //!
 //! Positions are absolute (`G90`), extrusion relative (`M83`). A travel move is
 //! `G0 X.. Y.. F..`; a depositing move is `G1 X.. Y.. E.. F..`, with `E` the length of
-//! 1.75 mm filament whose volume fills the road (`road_width * layer_height * length`). The
+//! 1.75 mm filament whose volume fills the road (`width * layer_height * length`, the width the
+//! mean of the move's two vertex widths: the slice's road width, or wider or narrower where the
+//! layer fills a wider or narrower gap). The
 //! composition is Marlin's mix (`M165 A.. B.. C.. D..`, fractions), written before a move
 //! whenever the composition of the vertex it goes to, rounded to 1e-3, differs from the last
 //! one written. Each layer starts with `; layer K pattern NAME` and `G0 Z..` at
@@ -45,7 +47,6 @@ pub fn export(
     feed_mm_s: f64,
     travel_mm_s: f64,
 ) -> String {
-    let w = slice.settings().road_width as f64;
     let h = slice.settings().layer_height as f64;
     let feed = feed_mm_s * 60.0;
     let travel = travel_mm_s * 60.0;
@@ -66,7 +67,7 @@ pub fn export(
     for (k, (pattern, path)) in layers.iter().enumerate() {
         let _ = writeln!(s, "; layer {k} pattern {}", pattern.name());
         let _ = writeln!(s, "G0 Z{:.4} F{travel:.0}", (k + 1) as f64 * h);
-        let mut prev: Option<Point> = None;
+        let mut prev: Option<Vertex> = None;
         for v in path {
             let q = quantise(&v.material);
             if last_mix != Some(q) {
@@ -81,12 +82,14 @@ pub fn export(
             // A depositing move too short to show in 4 decimals moves nothing: leave it out.
             let q4 = |a: f64| (a * 1e4).round() as i64;
             if let (Some(p), true) = (prev, v.deposit) {
-                if q4(p.x as f64) == q4(x) && q4(p.y as f64) == q4(y) {
+                if q4(p.at.x as f64) == q4(x) && q4(p.at.y as f64) == q4(y) {
                     continue;
                 }
             }
             match prev {
-                Some(p) if v.deposit => {
+                Some(pv) if v.deposit => {
+                    let p = pv.at;
+                    let w = 0.5 * (pv.width as f64 + v.width as f64);
                     // The length a reader of the file sees: between the written coordinates.
                     let r = |a: f64| q4(a) as f64 * 1e-4;
                     let len = (r(x) - r(p.x as f64)).hypot(r(y) - r(p.y as f64));
@@ -100,7 +103,7 @@ pub fn export(
                     let _ = writeln!(s, "G0 X{x:.4} Y{y:.4} F{travel:.0}");
                 }
             }
-            prev = Some(v.at);
+            prev = Some(*v);
         }
     }
     let _ = writeln!(s, "; end");
@@ -111,7 +114,10 @@ pub fn export(
 pub type ParsedLayer = (Option<String>, Vec<Vertex>);
 
 /// Reads G-code as a viewer would: `G0`/`G1` with `X`/`Y` go to a vertex, which deposits when
-/// the move extrudes (`E` > 0 under `M83`, `E` growing under `M82`); `M165` sets the
+/// the move extrudes (`E` > 0 under `M83`, `E` growing under `M82`), with the road width the
+/// extruded volume gives over the move's length (the header's `; layer_height` and
+/// `; filament_diameter`; the header's `; road_width` where the move has no length, or on a
+/// travel move); `M165` sets the
 /// composition (normalised; channel A alone before the first); `G90`/`G91` switch absolute and
 /// relative positions, `G92 E` resets an absolute `E`; a `; layer` comment, or a `Z` change in
 /// a layer that already has vertices, starts a new layer. Anything else is ignored.
@@ -123,12 +129,23 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
     let mut absolute = true;
     let mut absolute_e = false;
     let mut e_pos = 0.0f64;
+    // From the header, where it says.
+    let (mut road_width, mut layer_height, mut filament) = (0.4f64, 0.3f64, FILAMENT_DIAMETER);
     for (n, raw) in text.lines().enumerate() {
         let line_no = n + 1;
         let (code, comment) = match raw.find(';') {
             Some(c) => (&raw[..c], Some(raw[c + 1..].trim())),
             None => (raw, None),
         };
+        if let Some((key, value)) = comment.and_then(|c| c.split_once('=')) {
+            let value = value.trim().parse::<f64>().ok().filter(|v| *v > 0.0);
+            match (key.trim(), value) {
+                ("road_width", Some(v)) => road_width = v,
+                ("layer_height", Some(v)) => layer_height = v,
+                ("filament_diameter", Some(v)) => filament = v,
+                _ => {}
+            }
+        }
         if let Some(rest) = comment.and_then(|c| c.strip_prefix("layer ")) {
             let mut words = rest.split_whitespace();
             let _index = words.next();
@@ -173,18 +190,20 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                     z = Some(nz);
                 }
                 let (ax, ay) = (arg('X'), arg('Y'));
-                let extrudes = match arg('E') {
+                let extruded = match arg('E') {
                     Some(e) if absolute_e => {
-                        let grows = e > e_pos;
+                        let de = e - e_pos;
                         e_pos = e;
-                        grows
+                        de
                     }
-                    Some(e) => e > 0.0,
-                    None => false,
+                    Some(e) => e,
+                    None => 0.0,
                 };
+                let extrudes = extruded > 0.0;
                 if ax.is_none() && ay.is_none() {
                     continue;
                 }
+                let (px, py) = (x, y);
                 if absolute {
                     x = ax.unwrap_or(x);
                     y = ay.unwrap_or(y);
@@ -197,9 +216,17 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                 }
                 let layer = &mut layers.last_mut().expect("a layer is open").1;
                 let deposit = extrudes && !layer.is_empty();
+                let len = (x - px).hypot(y - py);
+                let r = 0.5 * filament;
+                let width = if deposit && len > 1e-9 {
+                    extruded * std::f64::consts::PI * r * r / (layer_height * len)
+                } else {
+                    road_width
+                };
                 layer.push(Vertex {
                     at: Point::new(x as f32, y as f32),
                     material,
+                    width: width as f32,
                     deposit,
                 });
             }

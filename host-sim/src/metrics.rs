@@ -1,7 +1,8 @@
 //! Measuring a toolpath layer (`DESIGN.md`, "Measuring a toolpath").
 //!
-//! Every depositing move is a road of the road width: the capsule of radius `w / 2` around the
-//! move. Roads are deposited onto a [`Raster`] of the slice (0.025 mm cells by default) and the
+//! Every depositing move is a road of its vertices' widths: the capsule of radius `w / 2` around
+//! the move (the hull of the discs of half each end's width, where the layer widens or narrows
+//! a road). Roads are deposited onto a [`Raster`] of the slice (0.025 mm cells by default) and the
 //! layer is scored by what they cover:
 //!
 //! - `starts`: extrusion starts (a travel move followed by a depositing move; the first vertex
@@ -186,7 +187,6 @@ impl<'s> Meter<'s> {
         field: &dyn Fn(Point) -> Option<Material>,
     ) -> LayerMetrics {
         let slice = self.slice;
-        let half = 0.5 * slice.settings().road_width;
         let stride = self.options.composition_stride.max(1);
         let sx = self.sx;
         self.raster.clear();
@@ -211,15 +211,16 @@ impl<'s> Meter<'s> {
             }
             extruded_mm += len;
             let samples = &mut self.samples;
-            self.raster.stamp_segment(a.at, b.at, half, |h: Hit| {
-                if h.region != Region::Printable || h.i % stride != 0 || h.j % stride != 0 {
-                    return;
-                }
-                let s = &mut samples[(h.j / stride) * sx + h.i / stride];
-                if h.d2 < s.0 {
-                    *s = (h.d2, blend(&a.material, &b.material, h.t));
-                }
-            });
+            self.raster
+                .stamp_segment(a.at, b.at, 0.5 * a.width, 0.5 * b.width, |h: Hit| {
+                    if h.region != Region::Printable || h.i % stride != 0 || h.j % stride != 0 {
+                        return;
+                    }
+                    let s = &mut samples[(h.j / stride) * sx + h.i / stride];
+                    if h.d2 < s.0 {
+                        *s = (h.d2, blend(&a.material, &b.material, h.t));
+                    }
+                });
         }
 
         let (mut covered, mut twice, mut spilt) = (0usize, 0usize, 0usize);

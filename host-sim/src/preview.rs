@@ -24,28 +24,40 @@ pub const HOLE_FILL: &str = "#eeeeee";
 /// Colour of travel moves.
 pub const TRAVEL_COLOUR: &str = "#555555";
 
-/// Pieces a move of `len` mm between compositions `a` and `b` is drawn in: one if both show in
-/// the same colour, else about one per half road width (at most 16).
-fn pieces(a: &Material, b: &Material, len: f32, w: f32) -> usize {
-    if colour(a) == colour(b) {
+/// Pieces a move of `len` mm from vertex `a` to `b` is drawn in: one if both ends show in the
+/// same colour at the same width, else about one per half road width (at most 16).
+fn pieces(a: &Vertex, b: &Vertex, w: f32) -> usize {
+    if colour(&a.material) == colour(&b.material) && (a.width - b.width).abs() < 0.01 * w {
         1
     } else {
-        ((len / (0.5 * w)).ceil() as usize).clamp(2, 16)
+        ((a.at.dist(b.at) / (0.5 * w)).ceil() as usize).clamp(2, 16)
     }
 }
 
-/// The coloured pieces a road is drawn in: each move split into up to 16 pieces (one where its
-/// ends look alike) with the blended composition at the piece's middle.
-fn shaded_pieces(road: &[Vertex], w: f32) -> impl Iterator<Item = (Point, Point, Material)> + '_ {
+/// Whether a road is drawn as one stroke: one colour and one width all along.
+fn uniform(road: &[Vertex], w: f32) -> bool {
+    let base = colour(&road[0].material);
+    road.iter()
+        .all(|v| colour(&v.material) == base && (v.width - road[0].width).abs() < 0.01 * w)
+}
+
+/// The pieces a road is drawn in: each move split into up to 16 pieces (one where its ends
+/// look alike) with the blended composition and the width at the piece's middle.
+fn shaded_pieces(
+    road: &[Vertex],
+    w: f32,
+) -> impl Iterator<Item = (Point, Point, Material, f32)> + '_ {
     road.windows(2).flat_map(move |seg| {
         let (a, b) = (seg[0], seg[1]);
-        let n = pieces(&a.material, &b.material, a.at.dist(b.at), w);
+        let n = pieces(&a, &b, w);
         (0..n).map(move |k| {
             let (t0, t1) = (k as f32 / n as f32, (k + 1) as f32 / n as f32);
+            let t = 0.5 * (t0 + t1);
             (
                 a.at.lerp(b.at, t0),
                 a.at.lerp(b.at, t1),
-                blend(&a.material, &b.material, 0.5 * (t0 + t1)),
+                blend(&a.material, &b.material, t),
+                a.width + (b.width - a.width) * t,
             )
         })
     })
@@ -93,20 +105,21 @@ pub fn layer_svg(slice: &Slice, path: &[Vertex]) -> String {
     for run in road_runs(path) {
         let road = &path[run];
         let pts: Vec<Point> = road.iter().map(|v| v.at).collect();
+        // The narrowest width all along; pieces over it show where it is wider.
+        let narrow = road.iter().map(|v| v.width).fold(f32::INFINITY, f32::min);
         let _ = writeln!(
             s,
-            r#"<path class="road" d="{}" fill="none" stroke="{}" stroke-width="{w}" stroke-linecap="round" stroke-linejoin="round"/>"#,
+            r#"<path class="road" d="{}" fill="none" stroke="{}" stroke-width="{narrow}" stroke-linecap="round" stroke-linejoin="round"/>"#,
             svg_path(&pts, false),
             colour(&road[0].material)
         );
-        let base = colour(&road[0].material);
-        if road.iter().all(|v| colour(&v.material) == base) {
+        if uniform(road, w) {
             continue;
         }
-        for (p, q, m) in shaded_pieces(road, w) {
+        for (p, q, m, width) in shaded_pieces(road, w) {
             let _ = writeln!(
                 s,
-                r#"<line class="shade" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{}" stroke-width="{w}" stroke-linecap="round"/>"#,
+                r#"<line class="shade" x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{}" stroke-width="{width:.4}" stroke-linecap="round"/>"#,
                 p.x,
                 -p.y,
                 q.x,
@@ -194,8 +207,8 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
         }
     }
     let w = slice.settings().road_width;
-    let road = Stroke {
-        width: w * s,
+    let stroke = |width: f32| Stroke {
+        width: width * s,
         line_cap: LineCap::Round,
         line_join: LineJoin::Round,
         ..Stroke::default()
@@ -203,7 +216,8 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
     for run in road_runs(path) {
         let verts = &path[run];
         let base = colour(&verts[0].material);
-        if verts.iter().all(|v| colour(&v.material) == base) {
+        if uniform(verts, w) {
+            let road = stroke(verts[0].width);
             let pts: Vec<Point> = verts.iter().map(|v| v.at).collect();
             // A road of one zero-length move is a dot: a round cap needs a direction.
             let pts = if pts.len() == 2 && pts[0] == pts[1] {
@@ -216,9 +230,15 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
             }
             continue;
         }
-        for (p, q, m) in shaded_pieces(verts, w) {
+        for (p, q, m, width) in shaded_pieces(verts, w) {
             if let Some(line) = polyline(&[p, q], false) {
-                pixmap.stroke_path(&line, &paint_of(&colour(&m), false), &road, id, None);
+                pixmap.stroke_path(
+                    &line,
+                    &paint_of(&colour(&m), false),
+                    &stroke(width),
+                    id,
+                    None,
+                );
             }
         }
     }

@@ -202,13 +202,25 @@ impl Raster {
         self.revisit = revisit;
     }
 
-    /// Deposits the capsule of radius `radius` around segment `ab`, the next piece of the
-    /// current stroke: every grid cell whose centre is within `radius` of the segment counts
+    /// Deposits the road around segment `ab`, the next piece of the current stroke: the hull
+    /// of the discs of radius `ra` at `a` and `rb` at `b` (a capsule when they are equal; the
+    /// radius tapers linearly along the move). Every grid cell whose centre is in it counts
     /// once more, unless the stroke already covered it ([`Revisit::Once`]) or its previous
     /// segment did ([`Revisit::Again`]). `visit` is called for every such grid cell (counted
     /// or not; see [`Hit`]). Cells beyond the grid are recorded in the outside set.
-    pub fn stamp_segment(&mut self, a: Point, b: Point, radius: f32, mut visit: impl FnMut(Hit)) {
-        if radius.is_nan() || radius <= 0.0 || !a.is_finite() || !b.is_finite() {
+    pub fn stamp_segment(
+        &mut self,
+        a: Point,
+        b: Point,
+        ra: f32,
+        rb: f32,
+        mut visit: impl FnMut(Hit),
+    ) {
+        let radius = ra.max(rb);
+        if radius.is_nan() || ra < 0.0 || rb < 0.0 || radius <= 0.0 {
+            return;
+        }
+        if !a.is_finite() || !b.is_finite() {
             return;
         }
         if self.segment >= u32::MAX - 1 {
@@ -221,13 +233,23 @@ impl Raster {
         let (ox, oy) = (self.origin.x, self.origin.y);
         let ab = b - a;
         let l2 = ab.norm2();
-        let r2 = radius * radius;
+        let len = l2.sqrt();
+        // The taper's slope dr/ds: the point of the move nearest a cell in the sense of the
+        // hull lies off the plain projection by `k h / sqrt(1 - k^2)` (h: distance off the
+        // line), where the derivative of |p - s| - r(s) vanishes.
+        let k = if len > 0.0 { (rb - ra) / len } else { 0.0 };
+        let slope = if k.abs() < 1.0 {
+            k / (1.0 - k * k).sqrt()
+        } else {
+            0.0
+        };
         let ylo = a.y.min(b.y) - radius;
         let yhi = a.y.max(b.y) + radius;
         let j0 = ((ylo - oy) / cell).floor() as i64;
         let j1 = ((yhi - oy) / cell).ceil() as i64;
         for j in j0..=j1 {
             let y = oy + j as f32 * cell;
+            // The capsule of the larger radius holds the hull: a superset of the row.
             let Some((xl, xr)) = capsule_row(a, b, radius, y) else {
                 continue;
             };
@@ -237,13 +259,21 @@ impl Raster {
             let row_on_grid = j >= 0 && (j as usize) < self.ny;
             for i in i0..=i1 {
                 let p = Point::new(ox + i as f32 * cell, y);
-                let t = if l2 > 0.0 {
-                    ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+                let (t, d2, r) = if len > 0.0 && k.abs() >= 1.0 {
+                    // One disc holds the other: the larger one is the road.
+                    let (c, t) = if rb > ra { (b, 1.0) } else { (a, 0.0) };
+                    (t, (c - p).norm2(), radius)
                 } else {
-                    0.0
+                    let t = if len > 0.0 {
+                        let u = (p - a).dot(ab) / len;
+                        let shift = slope * (p - a).cross(ab).abs() / len;
+                        ((u + shift) / len).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    (t, (a + ab * t - p).norm2(), ra + (rb - ra) * t)
                 };
-                let d2 = (a + ab * t - p).norm2();
-                if d2 > r2 {
+                if d2 > r * r {
                     continue;
                 }
                 if row_on_grid && i >= 0 && (i as usize) < self.nx {
@@ -280,10 +310,10 @@ impl Raster {
     pub fn stamp_polyline(&mut self, pts: &[Point], radius: f32) {
         self.begin_stroke(Revisit::Once);
         if pts.len() == 1 {
-            self.stamp_segment(pts[0], pts[0], radius, |_| {});
+            self.stamp_segment(pts[0], pts[0], radius, radius, |_| {});
         }
         for w in pts.windows(2) {
-            self.stamp_segment(w[0], w[1], radius, |_| {});
+            self.stamp_segment(w[0], w[1], radius, radius, |_| {});
         }
     }
 

@@ -64,6 +64,8 @@ struct FileSettings {
     mcl_spacing: Option<f64>,
     relax_iterations: Option<u8>,
     relax_spacing: Option<f64>,
+    min_width: Option<f64>,
+    max_width: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -120,6 +122,8 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
     set(s.delta, &mut settings.delta);
     set(s.mcl_spacing, &mut settings.mcl_spacing);
     set(s.relax_spacing, &mut settings.relax_spacing);
+    set(s.min_width, &mut settings.min_width);
+    set(s.max_width, &mut settings.max_width);
     if let Some(n) = s.relax_iterations {
         settings.relax_iterations = n;
     }

@@ -20,10 +20,12 @@ fn road_stays_in_region(
             continue;
         }
         let (a, b) = (path[i - 1].at, path[i].at);
+        let (wa, wb) = (path[i - 1].width, path[i].width);
         let n = (a.dist(b) / (0.1 * half)).ceil().max(1.0) as usize;
         for t in 0..=n {
-            let p = a.lerp(b, t as f32 / n as f32);
-            if !slice.is_printable(p, 1e-3) {
+            let f = t as f32 / n as f32;
+            let p = a.lerp(b, f);
+            if !slice.fits(p, wa + (wb - wa) * f, 1e-3) {
                 return Err(format!("road {i} leaves the printable region at {p:?}"));
             }
         }

@@ -21,6 +21,7 @@ fn travel(x: f64, y: f64) -> Vertex {
     Vertex {
         at: p(x, y),
         material: A,
+        width: 0.4,
         deposit: false,
     }
 }
@@ -29,6 +30,7 @@ fn dep(x: f64, y: f64) -> Vertex {
     Vertex {
         at: p(x, y),
         material: A,
+        width: 0.4,
         deposit: true,
     }
 }
@@ -116,6 +118,46 @@ fn a_single_straight_road_covers_its_capsule() {
         w * l + PI * w * w / 4.0,
         0.02,
     );
+}
+
+#[test]
+fn a_tapered_road_covers_the_hull_of_its_end_discs() {
+    // A road widening from 0.3 mm to 0.6 mm over 5 mm covers the hull of a disc of radius
+    // 0.15 at one end and 0.3 at the other: the two tangent lines make an angle
+    // phi = asin(dr / l) with the axis, so the hull is the trapezoid between the four tangent
+    // points plus the circular segment of each disc beyond it, in closed form.
+    let slice = two_holes();
+    let (a, b) = ((-2.0, -7.0), (3.0, -7.0));
+    let (ra, rb) = (0.15f64, 0.3f64);
+    let l = dist(a, b);
+    let path = [
+        Vertex {
+            width: (2.0 * ra) as f32,
+            ..travel(a.0, a.1)
+        },
+        Vertex {
+            width: (2.0 * rb) as f32,
+            ..dep(b.0, b.1)
+        },
+    ];
+    let m = measure(&slice, Pattern::Raster, &path, &no_field);
+    assert_eq!((m.spill, m.overfill), (0.0, 0.0));
+    let phi = ((rb - ra) / l).asin();
+    // Tangent points at pi/2 + phi from the axis on each disc: chords across them, arcs of
+    // pi - 2 phi (the narrow end) and pi + 2 phi (the wide end) beyond.
+    let trapezoid = (ra + rb) * phi.cos() * (l + (ra - rb) * phi.sin());
+    let segment = |r: f64, arc: f64| r * r / 2.0 * (arc - arc.sin());
+    let sectors = segment(ra, PI - 2.0 * phi) + segment(rb, PI + 2.0 * phi);
+    let region = Meter::new(&slice, Options::default()).printable_area();
+    assert_close(
+        "covered area",
+        m.coverage * region,
+        trapezoid + sectors,
+        0.02,
+    );
+    // Against a capsule of either width it is neither.
+    let thin = 2.0 * ra * l + PI * ra * ra;
+    assert!(m.coverage * region > 1.2 * thin);
 }
 
 #[test]
@@ -381,11 +423,13 @@ fn composition_error_compares_the_blend_along_the_road_with_the_field() {
         Vertex {
             at: p(a.0, a.1),
             material: A,
+            width: 0.4,
             deposit: false,
         },
         Vertex {
             at: p(b.0, b.1),
             material: B,
+            width: 0.4,
             deposit: true,
         },
     ];
@@ -433,6 +477,7 @@ fn each_cell_takes_the_composition_of_its_nearest_road() {
     let v = |q: (f64, f64), m: Material, deposit: bool| Vertex {
         at: p(q.0, q.1),
         material: m,
+        width: 0.4,
         deposit,
     };
     let path = [
@@ -483,6 +528,7 @@ fn feature_composition_error_is_the_worst_keep_out_vertex() {
     let v = |at: Point, material: Material, deposit: bool| Vertex {
         at,
         material,
+        width: 0.4,
         deposit,
     };
     let opts = Options::with_cell(0.1);

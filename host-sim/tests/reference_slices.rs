@@ -109,7 +109,9 @@ fn bisectors_are_equidistant_and_inside() {
 #[test]
 fn roads_along_the_mcls_leave_no_gap_wider_than_a_road() {
     // A gap wider than a road between roads of width w means a point farther than w from every
-    // MCL. Outside the corners at branch points there are none.
+    // MCL. Outside the corners at branch points, and the far ends of a few MCLs whose starts
+    // the refinement left a road apart rather than crowd them (the zigzag widens its roads
+    // there), there are none: under 1 % of the region.
     for (name, slice) in slices() {
         let planner = host_sim::plan(&slice).unwrap();
         let plan = planner.last_plan();
@@ -120,7 +122,7 @@ fn roads_along_the_mcls_leave_no_gap_wider_than_a_road() {
         }
         let bare = raster.uncovered_fraction();
         assert!(
-            bare < 0.005,
+            bare < 0.01,
             "{name}: {:.4} of the region is farther than a road from every MCL",
             bare
         );

@@ -42,7 +42,12 @@ impl Pattern {
 /// ```
 /// use hollowpath::toolpath::Vertex;
 /// use hollowpath::geometry::Point;
-/// let v = Vertex { at: Point::new(1.0, 2.0), material: [1.0, 0.0, 0.0, 0.0], deposit: true };
+/// let v = Vertex {
+///     at: Point::new(1.0, 2.0),
+///     material: [1.0, 0.0, 0.0, 0.0],
+///     width: 0.4,
+///     deposit: true,
+/// };
 /// assert!(v.deposit);
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +57,14 @@ pub struct Vertex {
     pub at: Point,
     /// The composition deposited at this vertex (blended linearly along the move into it).
     pub material: Material,
+    /// The road width deposited at this vertex, mm (linear along the move into it, like the
+    /// composition). Usually the slice's road width; a layer widens a road where its
+    /// neighbours are farther apart than a road width and narrows it where they are nearer,
+    /// within the slice's [`Settings::min_width`](crate::Settings::min_width) ..
+    /// [`max_width`](crate::Settings::max_width), so the deposit fills the gap between them
+    /// (the extrusion rate per millimetre follows the width). Never more than twice the
+    /// vertex's clearance from the features: a wide road does not spill.
+    pub width: f32,
     /// Whether the move from the previous vertex into this one deposits a road; `false` is a
     /// travel move with the valves shut. The first vertex of a layer is always reached by
     /// travel.
@@ -78,7 +91,8 @@ impl<const N: usize> PathSink for heapless::Vec<Vertex, N> {
     }
 }
 
-/// A 64-bit FNV-1a digest of a path (positions and compositions as IEEE bits, deposit flags):
+/// A 64-bit FNV-1a digest of a path (positions, compositions and widths as IEEE bits, deposit
+/// flags):
 /// equal digests mean bit-identical layers, on the host and on the MCU.
 pub fn digest(path: &[Vertex]) -> u64 {
     let mut sink = DigestSink::new();
@@ -96,8 +110,8 @@ pub fn digest(path: &[Vertex]) -> u64 {
 /// use hollowpath::geometry::Point;
 /// use hollowpath::toolpath::{digest, DigestSink, PathSink, Vertex};
 /// let path = [
-///     Vertex { at: Point::new(0.0, 0.0), material: [1.0, 0.0, 0.0, 0.0], deposit: false },
-///     Vertex { at: Point::new(1.0, 0.0), material: [0.5, 0.5, 0.0, 0.0], deposit: true },
+///     Vertex { at: Point::new(0.0, 0.0), material: [1.0, 0.0, 0.0, 0.0], width: 0.4, deposit: false },
+///     Vertex { at: Point::new(1.0, 0.0), material: [0.5, 0.5, 0.0, 0.0], width: 0.5, deposit: true },
 /// ];
 /// let mut sink = DigestSink::new();
 /// for &v in &path {
@@ -135,6 +149,7 @@ impl DigestSink {
         for m in v.material {
             self.fnv.word(m.to_bits());
         }
+        self.fnv.word(v.width.to_bits());
         self.fnv.word(v.deposit as u32);
         self.len += 1;
         self.last = Some(v);
@@ -185,22 +200,22 @@ pub(crate) fn emit(sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
     })
 }
 
-/// Appends `v` to `sink` as [`emit`] does, keeping a depositing move in the printable region:
-/// where its straight chord would cut into a keep-out band (the sagitta of a chord across a
-/// convex feature, or a chord across a whole feature) the move is bent, point by point pushed
-/// out to exactly half a road width, with the composition blended along the move; a piece that
-/// still cannot be deposited inside the region is travelled instead, so nothing is ever
-/// deposited inside a hollow feature or outside the wall.
+/// Appends `v` to `sink` as [`emit`] does, keeping a depositing move in the material: where
+/// its straight chord would cut into a keep-out band (half the road's width from a feature:
+/// the sagitta of a chord across a convex feature, or a chord across a whole feature) the move
+/// is bent, point by point pushed out to exactly half the road's width, with the composition
+/// and width blended along the move; a piece that still cannot be deposited inside the region
+/// is travelled instead, so nothing is ever deposited inside a hollow feature or outside the
+/// wall.
 pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
     match (sink.last_vertex(), v.deposit) {
         (Some(prev), true) => {
             // Both ends must lie in the region (a keep-out curve can run through another
             // feature's band where features are closer than a road width).
-            let half = 0.5 * slice.settings().road_width;
             let mut v = v;
-            if !slice.is_printable(v.at, 1e-4) {
-                let (pushed, _) = into_region(slice, v.at, half);
-                if slice.is_printable(pushed, 1e-4) {
+            if !slice.fits(v.at, v.width, 1e-4) {
+                let (pushed, _) = into_region(slice, v.at, 0.5 * v.width);
+                if slice.fits(pushed, v.width, 1e-4) {
                     v.at = pushed;
                 } else {
                     return emit(
@@ -214,7 +229,7 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
             }
             // A depositing predecessor was checked when it was emitted; only the start of a
             // road (reached by travel) still needs it.
-            if !prev.deposit && !slice.is_printable(prev.at, 1e-4) {
+            if !prev.deposit && !slice.fits(prev.at, prev.width, 1e-4) {
                 return emit(
                     sink,
                     Vertex {
@@ -237,13 +252,9 @@ fn bend(
     b: Vertex,
     depth: u8,
 ) -> Result<(), Error> {
-    let half = 0.5 * slice.settings().road_width;
+    let half = 0.5 * a.width.max(b.width);
     let crossing = slice.segment_crosses_feature(a.at, b.at);
-    let dip = if crossing {
-        None
-    } else {
-        slice.segment_dip(a.at, b.at, half - 1e-4)
-    };
+    let dip = if crossing { None } else { dip(slice, a, b) };
     if !crossing && dip.is_none() {
         return emit(sink, b);
     }
@@ -264,12 +275,21 @@ fn bend(
         Some(FeatureId::Wall) => slice.wall().material(),
         None => composition::blend(&a.material, &b.material, t),
     };
+    // A point put on a keep-out curve is half the wider end's width from its feature: no
+    // wider.
+    let width = a.width + (b.width - a.width) * t;
     let mid = Vertex {
         at: pushed,
         material,
+        width: if onto.is_some() {
+            width.min(2.0 * half)
+        } else {
+            width
+        },
         deposit: true,
     };
-    if pushed.dist(a.at) < 1e-6 || pushed.dist(b.at) < 1e-6 || !slice.is_printable(pushed, 1e-4) {
+    if pushed.dist(a.at) < 1e-6 || pushed.dist(b.at) < 1e-6 || !slice.fits(pushed, mid.width, 1e-4)
+    {
         return emit(
             sink,
             Vertex {
@@ -281,6 +301,18 @@ fn bend(
     bend(slice, sink, a, mid, depth - 1)?;
     let mid_emitted = sink.last_vertex().unwrap_or(mid);
     bend(slice, sink, mid_emitted, b, depth - 1)
+}
+
+/// Where the depositing move `ab` comes nearer a feature than half its width there (the width
+/// tapers linearly along it): its parameter and point, as [`Slice::segment_dip`] and
+/// [`Slice::tapered_dip`] give them.
+fn dip(slice: &Slice, a: Vertex, b: Vertex) -> Option<(f32, Point)> {
+    let (ra, rb) = (0.5 * a.width - 1e-4, 0.5 * b.width - 1e-4);
+    if ra == rb {
+        slice.segment_dip(a.at, b.at, ra)
+    } else {
+        slice.tapered_dip(a.at, b.at, ra, rb)
+    }
 }
 
 /// `p` moved out of any keep-out band onto its edge (half a road width from the feature),

@@ -52,6 +52,19 @@ const STRICT_TOL: f32 = 0.05;
 const BRIDGE_GAP: f32 = 0.5;
 /// The same, for the second try at loops that no strict join reaches.
 const RELAXED_TOL: f32 = 0.3;
+/// Bisection steps locating a ridge within a road width (`w / 2^14`: 0.02 µm at 0.4 mm).
+const RIDGE_STEPS: u32 = 14;
+/// How much a feature's own distance along its normal may fall short of growing with the step
+/// before the step counts as past one of its own ridges, in road widths. A polygon's every
+/// convex-from-inside vertex (the wall's, a round hole's inside) starts a ridge of its own
+/// where its two edges are equally near, but the shortfall beyond it grows only as
+/// `t (1 - cos a)` for the small turn `a` at the vertex: about 1e-3 t on the reference slices'
+/// polygons, well under this. Two parts of a non-convex feature facing each other fall short
+/// at a good fraction of `t`.
+const RIDGE_TOL_PER_ROAD: f32 = 0.01;
+/// How far short of a ridge a widened road stops, mm: the chords of the two sides' roads may
+/// cross it by their sagitta.
+const RIDGE_MARGIN: f32 = 2e-3;
 
 /// Counters of an offset-spiral layer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -167,6 +180,95 @@ fn distance(slice: &Slice, p: Point) -> (f32, Point, Material) {
         }
     }
     best
+}
+
+/// The distance from `p` to feature `f` (a hole index, or `holes` for the wall), positive in
+/// the material.
+fn feature_distance(slice: &Slice, f: usize, p: Point) -> f32 {
+    match slice.holes().get(f) {
+        Some(h) => h.nearest(p).distance,
+        None => -slice.wall().nearest(p).distance,
+    }
+}
+
+/// A turn's point `p` widened into the gap it leaves before a ridge, and the road width there.
+///
+/// Turns lie at fixed distances from the features, so where two features' turns meet at the
+/// ridge between them (the bisector, where the distances agree) the last turn on each side
+/// leaves a sliver narrower than a road. Along the distance gradient `n` from `p` (a straight
+/// line inside the feature's cell), the ridge lies where another feature's distance `D_j(p + t
+/// n)` drops to `D(p) + t` (or the feature's own distance falls behind `D(p) + t`, at a ridge
+/// between two parts of one non-convex feature); the function `D_j(p + t n) - D(p) - t` only
+/// falls (`D_j` is 1-Lipschitz), so bisection finds it. If it lies closer than a road width `w` there is no
+/// next turn beyond `p`: the road widens by the sliver `g` (the ridge's distance beyond the
+/// road's outer edge, `t - w/2`) and its centre moves `g/2` outward, so its inner edge stays
+/// where it was and its outer edge reaches the ridge, where the other side's last turn, widened
+/// the same way, meets it. Where the next turn does cross the ray but was left out (a small
+/// loop no join reached, `laid(q, level)` false at its crossing `q`), the road widens the same
+/// way as far as [`Settings::max_width`] allows. The road is never wider than
+/// [`Settings::max_width`], and half its
+/// width never exceeds its clearance (`D` grows by `g/2`, and every other feature is at least
+/// that far: it is farther than the ridge).
+///
+/// [`Settings::max_width`]: crate::Settings::max_width
+fn widened(slice: &Slice, p: Point, laid: impl Fn(Point, u16) -> bool) -> (Point, f32) {
+    let w = slice.settings().road_width;
+    let holes = slice.holes().len();
+    // The nearest feature, its distance and the gradient.
+    let nw = slice.wall().nearest(p);
+    let (mut own, mut d, mut n) = (holes, -nw.distance, -nw.gradient(p));
+    for (k, h) in slice.holes().iter().enumerate() {
+        if polygon::bbox_distance(h.bbox(), p) >= d {
+            continue;
+        }
+        let near = h.nearest(p);
+        if near.distance < d {
+            (own, d, n) = (k, near.distance, near.gradient(p));
+        }
+    }
+    let len = n.norm();
+    if len < 1e-6 {
+        return (p, w);
+    }
+    let n = n * (1.0 / len);
+    // The nearest ridge along `n` within reach of the widest road's outer edge.
+    let gap = |f: usize, t: f32| feature_distance(slice, f, p + n * t) - d - t;
+    let reach = slice.settings().max_width - 0.5 * w + RIDGE_MARGIN;
+    let mut ridge = reach;
+    for f in 0..=holes {
+        // The feature's own ridges count too (a non-convex feature's parts face each other):
+        // along its own normal its distance grows exactly with `t` until one, to rounding.
+        let tol = if f == own {
+            RIDGE_TOL_PER_ROAD * w
+        } else {
+            0.0
+        };
+        if gap(f, ridge) >= -tol {
+            continue;
+        }
+        let (mut lo, mut hi) = (0.0f32, ridge);
+        for _ in 0..RIDGE_STEPS {
+            let mid = 0.5 * (lo + hi);
+            if gap(f, mid) >= -tol {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        ridge = lo;
+    }
+    let g = (ridge - 0.5 * w - RIDGE_MARGIN).min(slice.settings().max_width - w);
+    if ridge >= reach || g <= 0.0 {
+        return (p, w);
+    }
+    if ridge >= w {
+        // The next turn crosses the ray a road width out: widen only if it was left out.
+        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16;
+        if laid(p + n * w, level + 1) {
+            return (p, w);
+        }
+    }
+    (p + n * (0.5 * g), w + g)
 }
 
 /// `x` wrapped into `[0, len)`.
@@ -695,8 +797,32 @@ impl OffsetSpiral {
         None
     }
 
-    /// The vertex at `p`, with its composition.
-    fn vertex(slice: &Slice, field: &BlendedField, p: Point, deposit: bool) -> Vertex {
+    /// Whether a laid loop of level `level` passes within `tol` of `q`.
+    fn laid_at(&self, q: Point, level: u16, tol: f32) -> bool {
+        self.loops.iter().enumerate().any(|(l, lp)| {
+            let (lo, hi) = lp.bbox;
+            if !lp.visited
+                || lp.level != level
+                || q.x < lo.x - tol
+                || q.y < lo.y - tol
+                || q.x > hi.x + tol
+                || q.y > hi.y + tol
+            {
+                return false;
+            }
+            let pts = self.pts(l);
+            (0..pts.len()).any(|k| {
+                let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                crate::geometry::polyline::closest_on_segment(a, b, q)
+                    .0
+                    .dist(q)
+                    <= tol
+            })
+        })
+    }
+
+    /// The vertex at `p`, with its composition and its road width ([`widened`] at ridges).
+    fn vertex(&self, slice: &Slice, field: &BlendedField, p: Point, deposit: bool) -> Vertex {
         let half = 0.5 * slice.settings().road_width;
         let (d, _, m) = distance(slice, p);
         let material = if d < half + 2.0 * FIRST_TURN_MARGIN {
@@ -704,9 +830,13 @@ impl OffsetSpiral {
         } else {
             field.at(p).unwrap_or(m)
         };
+        let (at, width) = widened(slice, p, |q, level| {
+            self.laid_at(q, level, 0.1 * slice.settings().road_width)
+        });
         Vertex {
-            at: p,
+            at,
             material,
+            width,
             deposit,
         }
     }
@@ -743,7 +873,7 @@ impl OffsetSpiral {
                 break;
             }
             if along > 1e-5 {
-                emit_move(slice, sink, Self::vertex(slice, field, pts[k], true))?;
+                emit_move(slice, sink, self.vertex(slice, field, pts[k], true))?;
             }
             k = if forward {
                 (k + 1) % n
@@ -755,7 +885,7 @@ impl OffsetSpiral {
         emit_move(
             slice,
             sink,
-            Self::vertex(slice, field, self.at(l, end), true),
+            self.vertex(slice, field, self.at(l, end), true),
         )
     }
 
@@ -799,7 +929,7 @@ impl OffsetSpiral {
             emit_move(
                 slice,
                 sink,
-                Self::vertex(slice, &field, self.at(root, s0), false),
+                self.vertex(slice, &field, self.at(root, s0), false),
             )?;
             self.stack.clear();
             let _ = self.stack.push(Frame {
@@ -843,7 +973,7 @@ impl OffsetSpiral {
                         emit_move(
                             slice,
                             sink,
-                            Self::vertex(slice, &field, self.at(child, enter), true),
+                            self.vertex(slice, &field, self.at(child, enter), true),
                         )?;
                         self.stack
                             .push(Frame {
@@ -861,7 +991,7 @@ impl OffsetSpiral {
                         // The bridge back.
                         if let Some(f) = self.stack.last() {
                             let p = self.at(f.lp as usize, f.pos);
-                            emit_move(slice, sink, Self::vertex(slice, &field, p, true))?;
+                            emit_move(slice, sink, self.vertex(slice, &field, p, true))?;
                         }
                     }
                 }

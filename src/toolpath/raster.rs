@@ -137,6 +137,7 @@ pub fn raster(
             Vertex {
                 at: p0,
                 material: material_at(p0),
+                width: slice.settings().road_width,
                 deposit: link,
             },
         )?;
@@ -149,6 +150,7 @@ pub fn raster(
                 Vertex {
                     at: p,
                     material: material_at(p),
+                    width: slice.settings().road_width,
                     deposit: true,
                 },
             )?;
@@ -176,6 +178,7 @@ fn perimeter(
                 Vertex {
                     at: p,
                     material,
+                    width: slice.settings().road_width,
                     deposit: !first,
                 },
             );
@@ -189,6 +192,7 @@ fn perimeter(
         Vertex {
             at: curve.at(0.0),
             material,
+            width: slice.settings().road_width,
             deposit: true,
         },
     )

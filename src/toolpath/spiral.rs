@@ -194,6 +194,7 @@ pub fn spiral(
                 Vertex {
                     at: p,
                     material: along(&ma, &mb, at_full, full),
+                    width: slice.settings().road_width,
                     deposit,
                 },
             )?;
@@ -225,6 +226,7 @@ pub fn spiral(
                         Vertex {
                             at: pts[i],
                             material: along(&ma, &mb, at_full, full),
+                            width: slice.settings().road_width,
                             deposit: true,
                         },
                     )?;

@@ -21,6 +21,14 @@ use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice, Target};
 
 const ENDS: usize = 2 * MAX_MCLS;
+/// How far inside the material every road's edge stays, mm: roads along a keep-out curve are
+/// this much narrower than a road each side, so the chords between the curve's points (whose
+/// sagitta cuts a few µm into the keep-out band) do not reach into a feature.
+const EDGE_MARGIN: f32 = 3e-3;
+/// Where the first and the last move of an MCL get extra vertices, road widths from its end:
+/// the road narrows to a road width at a keep-out curve but may be wider just off it, so the
+/// width follows the clearance there instead of tapering over the whole move.
+const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
 const NONE: u16 = u16::MAX;
 
 /// Counters of a zigzag layer.
@@ -324,16 +332,21 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
             // Along the MCL from `id` to its other end.
             let k = ends.mcls[(id / 2) as usize] as usize;
             let forward = id % 2 == 0;
-            emit_mcl(slice, plan, k, forward, first, sink)?;
-            first = false;
+            let near = neighbours(&ends, (id / 2) as usize);
+            let base = id & !1;
+            let spliced = [base, base + 1]
+                .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
             visited[id as usize] = true;
             let other = id ^ 1;
             visited[other as usize] = true;
             let mate = ends.arc[other as usize];
-            if mate == NONE || visited[mate as usize] {
+            let next = (mate != NONE && !visited[mate as usize]).then_some(mate);
+            emit_mcl(slice, plan, k, &near, spliced, forward, first, sink)?;
+            first = false;
+            let Some(mate) = next else {
                 here = Some(end_point(plan, &ends, other));
                 break;
-            }
+            };
             // Along the curve from `other` to `mate`.
             let c = ends.curve[other as usize] as usize;
             emit_arc(slice, &ends, &curves[c], c, other, mate, sink)?;
@@ -363,16 +376,114 @@ fn end_point(plan: &Plan, ends: &Ends, id: u16) -> Point {
     }
 }
 
-/// Deposits MCL `k` from its `from` end (`forward`) or from its far end; the first vertex of a
-/// piece is reached by travel.
+/// The MCLs next to MCL `ends.mcls[i]` along the curves of its two ends (plan indices,
+/// `NONE` where there is none): the roads it runs between.
+fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
+    let mut out = [NONE; 4];
+    for (slot, id) in [2 * i, 2 * i + 1].into_iter().enumerate() {
+        let (lo, hi) = ends.ranges[ends.curve[id] as usize];
+        let (lo, n) = (lo as usize, (hi - lo) as usize);
+        let Some(pos) = ends.order[lo..lo + n]
+            .iter()
+            .position(|&e| e as usize == id)
+        else {
+            continue;
+        };
+        for (side, step) in [n - 1, 1].into_iter().enumerate() {
+            let other = ends.order[lo + (pos + step) % n] as usize / 2;
+            if other != i {
+                out[2 * slot + side] = ends.mcls[other];
+            }
+        }
+    }
+    out
+}
+
+/// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
+///
+/// The road covers its share of the gaps to the nearest neighbouring road on either side
+/// (distances `l` and `r`, from `near`'s MCLs): from half-way to the left one to half-way to
+/// the right one. So it is `(l + r) / 2` wide and its centre lies `(r - l) / 4` toward the
+/// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
+/// in, without gap or overlap. The width stays within the slice's
+/// [`min_width`](crate::Settings::min_width) .. [`max_width`](crate::Settings::max_width) and
+/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side; the
+/// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
+/// where they are and are at most a road width wide, so nothing spills. `dir` is the MCL's
+/// direction at `p`.
+fn road_at(
+    slice: &Slice,
+    plan: &Plan,
+    p: Point,
+    dir: Point,
+    end: bool,
+    near: &[u16; 4],
+) -> (Point, f32) {
+    let settings = slice.settings();
+    let w = settings.road_width;
+    let len = dir.norm();
+    if len < 1e-6 {
+        return (p, w);
+    }
+    // Unit normal to the left of the MCL.
+    let left_n = Point::new(-dir.y / len, dir.x / len);
+    let (mut left, mut right) = (f32::INFINITY, f32::INFINITY);
+    for (k, &m) in near.iter().enumerate() {
+        if m == NONE || near[..k].contains(&m) {
+            continue;
+        }
+        let other = plan.points(&plan.mcls[m as usize]);
+        let mut best = (f32::INFINITY, Point::new(0.0, 0.0));
+        for seg in other.windows(2) {
+            let (q, _) = polyline::closest_on_segment(seg[0], seg[1], p);
+            let d = q.dist(p);
+            if d < best.0 {
+                best = (d, q);
+            }
+        }
+        if left_n.dot(best.1 - p) > 0.0 {
+            left = left.min(best.0);
+        } else {
+            right = right.min(best.0);
+        }
+    }
+    // A side without a neighbour mirrors the other.
+    let (left, right) = match (left.is_finite(), right.is_finite()) {
+        (true, true) => (left, right),
+        (true, false) => (left, left),
+        (false, true) => (right, right),
+        (false, false) => (w, w),
+    };
+    let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
+    let at = if end {
+        p
+    } else {
+        p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width)
+    };
+    let clearance = slice
+        .wall_clearance(at)
+        .min(slice.nearest_holes(at).1)
+        .max(0.5 * w);
+    let cap = if end { w } else { 2.0 * clearance } - 2.0 * EDGE_MARGIN;
+    (at, width.min(cap))
+}
+
+/// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
+/// neighbouring MCLs ([`neighbours`]), `spliced` the curve of each end (`from` end first) that
+/// leads into a splice's inner arc ([`inner_end`]); the first vertex of a piece is reached by
+/// travel.
+#[allow(clippy::too_many_arguments)]
 fn emit_mcl(
     slice: &Slice,
     plan: &Plan,
     k: usize,
+    near: &[u16; 4],
+    spliced: [Option<usize>; 2],
     forward: bool,
     travel_to_start: bool,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
+    let w = slice.settings().road_width;
     let pts = plan.points(&plan.mcls[k]);
     let (ma, mb) = mcl_end_materials(slice, plan, k);
     // Arc length at every vertex, summed from the `from` end either way, so both ends carry
@@ -383,21 +494,184 @@ fn emit_mcl(
     }
     let n = pts.len();
     let len = cum[n - 1];
+    // The MCL's vertices in walking order, with extra ones near both ends (`END_STEPS`).
+    let order = |step: usize| if forward { step } else { n - 1 - step };
+    let mut stops: Vec<(Point, Point, f32, bool), { 2 * END_STEPS.len() + 2 }> = Vec::new();
     for step in 0..n {
-        let i = if forward { step } else { n - 1 - step };
-        let v = Vertex {
-            at: pts[i],
-            material: along(&ma, &mb, cum[i], len),
-            // Reached by travel only at the start of a piece; else the arc before leads here.
-            deposit: step != 0 || !travel_to_start,
-        };
-        emit_move(slice, sink, v)?;
+        let i = order(step);
+        let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
+        let is_end = step == 0 || step + 1 == n;
+        stops.clear();
+        if step + 1 == n && n >= 2 {
+            // Approaching the far end: extra vertices at END_STEPS before it.
+            let prev = pts[order(step - 1)];
+            let seg = prev.dist(pts[i]);
+            for &f in END_STEPS.iter().rev() {
+                let d = f * w;
+                if d < seg - 1e-4 {
+                    let t = 1.0 - d / seg;
+                    let at_cum = cum[order(step - 1)] + (cum[i] - cum[order(step - 1)]) * t;
+                    let _ = stops.push((prev.lerp(pts[i], t), pts[i] - prev, at_cum, false));
+                }
+            }
+        }
+        let _ = stops.push((pts[i], dir, cum[i], is_end));
+        if step == 0 && n >= 2 {
+            // Leaving the first end: extra vertices at END_STEPS after it.
+            let next = pts[order(1)];
+            let seg = next.dist(pts[i]);
+            for &f in END_STEPS.iter() {
+                let d = f * w;
+                if d < seg - 1e-4 {
+                    let t = d / seg;
+                    let at_cum = cum[i] + (cum[order(1)] - cum[i]) * t;
+                    let _ = stops.push((pts[i].lerp(next, t), next - pts[i], at_cum, false));
+                }
+            }
+        }
+        for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
+            let (mut at, mut width) = road_at(slice, plan, p, dir, is_end, near);
+            // An end into a splice's inner arc lies on its line, a quarter road off the curve.
+            let shifted = match step {
+                0 if k == 0 => spliced[0],
+                _ if step + 1 == n && k + 1 == stops.len() => spliced[1],
+                _ => None,
+            };
+            if let Some(c) = shifted {
+                let (share, _, farther) = shared_strip(slice);
+                at = off_curve(slice, c, at, farther);
+                width = share;
+            }
+            let v = Vertex {
+                at,
+                material: along(&ma, &mb, at_cum, len),
+                width,
+                // Reached by travel only at the start of a piece; else the arc before leads
+                // here.
+                deposit: step != 0 || k != 0 || !travel_to_start,
+            };
+            emit_move(slice, sink, v)?;
+        }
     }
     Ok(())
 }
 
+/// How an arc of a curve lies among the others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Arc {
+    /// Alone on its stretch of curve.
+    Plain,
+    /// A splice's outer arc: it passes the ends of the inner arc, and shares the stretch
+    /// between them (arc lengths from its start, along it) with that arc.
+    Outer(f32, f32),
+    /// A splice's inner arc: between two neighbouring ends, under an outer arc.
+    Inner,
+}
+
+/// The arc of curve `c` from end `from` to end `to`: which way it runs (forward: increasing
+/// arc length), the way that passes no ends but those the arc spans, and its [`Arc`] role.
+fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bool, Arc) {
+    let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
+    let (lo, hi) = ends.ranges[c];
+    let (lo, n) = (lo as usize, (hi - lo) as usize);
+    let pos = |id: u16| {
+        ends.order[lo..lo + n]
+            .iter()
+            .position(|&e| e == id)
+            .unwrap_or(0)
+    };
+    let (pf, pt) = (pos(from), pos(to));
+    let steps_forward = (pt + n - pf) % n;
+    let forward = if n <= 2 {
+        curve.wrap(s1 - s0) <= curve.wrap(s0 - s1)
+    } else {
+        steps_forward <= n / 2
+    };
+    if n < 4 {
+        return (forward, Arc::Plain);
+    }
+    // The end `k` steps from `p` along the arc's direction.
+    let at = |p: usize, k: isize| {
+        let step = if forward { k } else { -k };
+        ends.order[lo + (p as isize + step).rem_euclid(n as isize) as usize]
+    };
+    let spanned = if forward {
+        steps_forward
+    } else {
+        (pf + n - pt) % n
+    } - 1;
+    let along = |id: u16| {
+        let s = ends.param[id as usize];
+        if forward {
+            curve.wrap(s - s0)
+        } else {
+            curve.wrap(s0 - s)
+        }
+    };
+    match spanned {
+        2 => {
+            let (x, y) = (at(pf, 1), at(pf, 2));
+            if ends.arc[x as usize] == y {
+                return (forward, Arc::Outer(along(x), along(y)));
+            }
+        }
+        0 => {
+            let (before, after) = (at(pf, -1), at(pt, 1));
+            if ends.arc[before as usize] == after {
+                return (forward, Arc::Inner);
+            }
+        }
+        _ => {}
+    }
+    (forward, Arc::Plain)
+}
+
+/// Whether end `id` starts or ends a splice's inner arc ([`Arc::Inner`]).
+fn inner_end(ends: &Ends, curves: &[KeepOut<'_>], id: u16) -> bool {
+    let mate = ends.arc[id as usize];
+    if mate == NONE {
+        return false;
+    }
+    let c = ends.curve[id as usize] as usize;
+    arc_of(ends, &curves[c], c, id, mate).1 == Arc::Inner
+}
+
+/// How two arcs share one stretch of a keep-out curve's strip (a splice, [`emit_arc`]): the
+/// width of each, and how far off the keep-out curve (away from the feature) the nearer and
+/// the farther one run. Half a road each, a quarter road either side of the curve, when the
+/// slice's [`min_width`](crate::Settings::min_width) allows; wider and nearer the curve (so
+/// overlapping) when it does not; their outer edges [`EDGE_MARGIN`] inside the strip.
+fn shared_strip(slice: &Slice) -> (f32, f32, f32) {
+    let w = slice.settings().road_width;
+    let share = (0.5 * w - 2.0 * EDGE_MARGIN).max(slice.settings().min_width);
+    let nearer = 0.5 * share + EDGE_MARGIN - 0.5 * w;
+    let farther = 0.5 * w - 0.5 * share - EDGE_MARGIN;
+    (share, nearer, farther)
+}
+
+/// `p`, on the keep-out curve of curve `c` (a hole index, or `holes` for the wall), moved
+/// `delta` farther from its feature (nearer for a negative `delta`).
+fn off_curve(slice: &Slice, c: usize, p: Point, delta: f32) -> Point {
+    match slice.holes().get(c) {
+        Some(h) => {
+            let near = h.nearest(p);
+            p + near.gradient(p) * delta
+        }
+        None => {
+            let near = slice.wall().nearest(p);
+            p - near.gradient(p) * delta
+        }
+    }
+}
+
 /// Deposits the arc of curve `c` from end `from` to end `to` (the way that passes no other
 /// end but those the arc spans).
+///
+/// A splice lays two arcs over one stretch of curve (the outer arc passing the inner arc's
+/// ends). There they share the road's strip half and half instead of both covering it: the
+/// outer arc runs a quarter road nearer the feature and the inner one a quarter road farther,
+/// both half a road wide ([`shared_strip`]), and the MCLs into the inner arc end on its line
+/// ([`inner_end`]).
 fn emit_arc(
     slice: &Slice,
     ends: &Ends,
@@ -407,41 +681,83 @@ fn emit_arc(
     to: u16,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
+    let w = slice.settings().road_width;
     let material = if c < slice.holes().len() {
         slice.holes()[c].material()
     } else {
         slice.wall().material()
     };
     let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
-    // Forward if `to` is reached first going forward without passing ends outside the span.
-    let (lo, hi) = ends.ranges[c];
-    let n = (hi - lo) as usize;
-    let pos = |id: u16| {
-        (lo as usize..hi as usize)
-            .position(|k| ends.order[k] == id)
-            .unwrap_or(0)
+    let (forward, role) = arc_of(ends, curve, c, from, to);
+    let vertex = |at: Point, width: f32| Vertex {
+        at,
+        material,
+        width,
+        deposit: true,
     };
-    let steps_forward = (pos(to) + n - pos(from)) % n;
-    let forward = if n <= 2 {
-        curve.wrap(s1 - s0) <= curve.wrap(s0 - s1)
-    } else {
-        steps_forward <= n / 2
+    let (share, nearer_by, farther_by) = shared_strip(slice);
+    let shared = |p: Point, nearer: bool| {
+        let delta = if nearer { nearer_by } else { farther_by };
+        vertex(off_curve(slice, c, p, delta), share)
     };
-    // The curve's vertices strictly between the two MCL ends (the MCLs carry the ends).
-    let mut inner: Vec<Point, { crate::config::MAX_VERTICES + 2 }> = Vec::new();
-    curve.arc(s0, s1, forward, |p, _| {
-        let _ = inner.push(p);
+    let w = w - 2.0 * EDGE_MARGIN;
+    // The curve's vertices strictly between the two MCL ends (the MCLs carry the ends), with
+    // their arc lengths from `s0`.
+    let mut inner: Vec<(Point, f32), { crate::config::MAX_VERTICES + 2 }> = Vec::new();
+    curve.arc(s0, s1, forward, |p, s| {
+        let along = if forward {
+            curve.wrap(s - s0)
+        } else {
+            curve.wrap(s0 - s)
+        };
+        let _ = inner.push((p, along));
     });
-    for &p in inner.iter().skip(1).take(inner.len().saturating_sub(2)) {
-        emit_move(
-            slice,
-            sink,
-            Vertex {
-                at: p,
-                material,
-                deposit: true,
-            },
-        )?;
+    let between = inner.iter().skip(1).take(inner.len().saturating_sub(2));
+    match role {
+        Arc::Plain => {
+            for &(p, _) in between {
+                emit_move(slice, sink, vertex(p, w))?;
+            }
+        }
+        Arc::Inner => {
+            for &(p, _) in between {
+                emit_move(slice, sink, shared(p, false))?;
+            }
+        }
+        Arc::Outer(x, y) => {
+            let point = |along: f32| curve.at(if forward { s0 + along } else { s0 - along });
+            let mut state = 0;
+            for &(p, along) in between {
+                if state == 0 && along > x {
+                    emit_move(slice, sink, vertex(point(x), w))?;
+                    emit_move(slice, sink, shared(point(x), true))?;
+                    state = 1;
+                }
+                if state == 1 && along >= y {
+                    emit_move(slice, sink, shared(point(y), true))?;
+                    emit_move(slice, sink, vertex(point(y), w))?;
+                    state = 2;
+                }
+                emit_move(
+                    slice,
+                    sink,
+                    if state == 1 {
+                        shared(p, true)
+                    } else {
+                        vertex(p, w)
+                    },
+                )?;
+            }
+            if state == 0 {
+                emit_move(slice, sink, vertex(point(x), w))?;
+                emit_move(slice, sink, shared(point(x), true))?;
+                state = 1;
+            }
+            if state == 1 {
+                emit_move(slice, sink, shared(point(y), true))?;
+                emit_move(slice, sink, vertex(point(y), w))?;
+            }
+        }
     }
     Ok(())
 }

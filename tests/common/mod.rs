@@ -65,9 +65,15 @@ pub fn check_layer_with(
     if path[0].deposit {
         return Err("the first vertex is reached by depositing".into());
     }
+    let settings = slice.settings();
     for (i, v) in path.iter().enumerate() {
         if !v.at.is_finite() {
             return Err(format!("vertex {i} not finite"));
+        }
+        // Within the slice's width limits (roads along a keep-out curve keep a few microns
+        // off its edge).
+        if !(v.width >= settings.min_width - 0.01 && v.width <= settings.max_width + 1e-6) {
+            return Err(format!("vertex {i}: width {}", v.width));
         }
         let sum: f32 = v.material.iter().sum();
         if v.material
@@ -95,12 +101,14 @@ pub fn check_layer_with(
             }
         }
         if i > 0 && v.deposit {
-            // Every road stays in the printable region: nothing inside a feature or the wall.
-            let a = path[i - 1].at;
+            // Every road stays in the material, half its width from every feature: nothing
+            // inside a feature or the wall.
+            let (a, wa) = (path[i - 1].at, path[i - 1].width);
             let n = (a.dist(v.at) / (0.25 * half)).ceil().max(1.0) as usize;
             for t in 0..=n {
-                let p = a.lerp(v.at, t as f32 / n as f32);
-                if !slice.is_printable(p, 2e-3) {
+                let f = t as f32 / n as f32;
+                let p = a.lerp(v.at, f);
+                if !slice.fits(p, wa + (v.width - wa) * f, 2e-3) {
                     return Err(format!("road {i} leaves the printable region at {p:?}"));
                 }
             }

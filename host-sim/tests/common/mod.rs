@@ -26,6 +26,7 @@ pub fn v(x: f32, y: f32, material: Material, deposit: bool) -> Vertex {
     Vertex {
         at: Point::new(x, y),
         material,
+        width: 0.4,
         deposit,
     }
 }
