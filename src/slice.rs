@@ -489,12 +489,17 @@ impl Slice {
         self.fits(p, self.settings.road_width, tol)
     }
 
+    /// The distance from `p` to the nearest feature (a hole or the wall), positive in the
+    /// material.
+    pub fn clearance(&self, p: Point) -> f32 {
+        self.wall_clearance(p).min(self.nearest_holes(p).1)
+    }
+
     /// Whether a road `width` wide centred at `p` stays in the material: inside the wall and
     /// outside every hole, half `width` from each (with a tolerance `tol`). For the road width
     /// this is [`Slice::is_printable`]; a narrower road may pass nearer a feature.
     pub fn fits(&self, p: Point, width: f32, tol: f32) -> bool {
-        let half = width * 0.5 - tol;
-        self.wall_clearance(p) >= half && self.nearest_holes(p).1 >= half
+        self.clearance(p) >= width * 0.5 - tol
     }
 
     /// Whether segment `ab` crosses or touches the boundary of a hole or of the wall.
@@ -519,18 +524,25 @@ impl Slice {
     /// at a feature's vertex (two segments are nearest at an end of one of them), so only
     /// vertices are looked at: exact, and cheap.
     pub fn segment_dip(&self, a: Point, b: Point, clearance: f32) -> Option<(f32, Point)> {
-        let lo = Point::new(a.x.min(b.x) - clearance, a.y.min(b.y) - clearance);
-        let hi = Point::new(a.x.max(b.x) + clearance, a.y.max(b.y) + clearance);
         let mut best: Option<(f32, f32, Point)> = None;
+        self.vertices_near(a, b, clearance, |q| {
+            let (c, t) = polyline::closest_on_segment(a, b, q);
+            let d = c.dist(q);
+            if d < clearance && best.is_none_or(|x| d < x.0) {
+                best = Some((d, t, c));
+            }
+        });
+        best.map(|(_, t, c)| (t, c))
+    }
+
+    /// Calls `f` with every feature vertex in the box of segment `ab` grown by `r`.
+    fn vertices_near(&self, a: Point, b: Point, r: f32, mut f: impl FnMut(Point)) {
+        let lo = Point::new(a.x.min(b.x) - r, a.y.min(b.y) - r);
+        let hi = Point::new(a.x.max(b.x) + r, a.y.max(b.y) + r);
         let mut consider = |pts: &[Point]| {
             for &q in pts {
-                if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
-                    continue;
-                }
-                let (c, t) = polyline::closest_on_segment(a, b, q);
-                let d = c.dist(q);
-                if d < clearance && best.is_none_or(|x| d < x.0) {
-                    best = Some((d, t, c));
+                if q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y {
+                    f(q);
                 }
             }
         };
@@ -541,7 +553,6 @@ impl Slice {
             }
         }
         consider(&self.wall.points);
-        best.map(|(_, t, c)| (t, c))
     }
 
     /// [`Slice::segment_dip`] for a road whose half-width tapers linearly from `ra` at `a` to
@@ -552,46 +563,31 @@ impl Slice {
     /// `k h / sqrt(1 - k^2)` along the segment (`k` the taper's slope, `h` the distance of `q`
     /// off the line), so each vertex is checked at one point.
     pub fn tapered_dip(&self, a: Point, b: Point, ra: f32, rb: f32) -> Option<(f32, Point)> {
-        let r = ra.max(rb);
-        let lo = Point::new(a.x.min(b.x) - r, a.y.min(b.y) - r);
-        let hi = Point::new(a.x.max(b.x) + r, a.y.max(b.y) + r);
         let ab = b - a;
         let len = ab.norm();
         let k = if len > 0.0 { (rb - ra) / len } else { 0.0 };
         let mut best: Option<(f32, f32, Point)> = None;
-        let mut consider = |pts: &[Point]| {
-            for &q in pts {
-                if q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y {
-                    continue;
-                }
-                let t = if len <= 0.0 {
-                    0.0
-                } else if k.abs() >= 1.0 {
-                    // One end's disc holds the other's.
-                    if rb > ra {
-                        1.0
-                    } else {
-                        0.0
-                    }
+        self.vertices_near(a, b, ra.max(rb), |q| {
+            let t = if len <= 0.0 {
+                0.0
+            } else if k.abs() >= 1.0 {
+                // One end's disc holds the other's.
+                if rb > ra {
+                    1.0
                 } else {
-                    let u = (q - a).dot(ab) / len;
-                    let h = libm::fabsf((q - a).cross(ab)) / len;
-                    ((u + k * h / libm::sqrtf(1.0 - k * k)) / len).clamp(0.0, 1.0)
-                };
-                let c = a + ab * t;
-                let depth = ra + (rb - ra) * t - c.dist(q);
-                if depth > 0.0 && best.is_none_or(|x| depth > x.0) {
-                    best = Some((depth, t, c));
+                    0.0
                 }
+            } else {
+                let u = (q - a).dot(ab) / len;
+                let h = libm::fabsf((q - a).cross(ab)) / len;
+                ((u + k * h / libm::sqrtf(1.0 - k * k)) / len).clamp(0.0, 1.0)
+            };
+            let c = a + ab * t;
+            let depth = ra + (rb - ra) * t - c.dist(q);
+            if depth > 0.0 && best.is_none_or(|x| depth > x.0) {
+                best = Some((depth, t, c));
             }
-        };
-        for h in self.holes.iter() {
-            let bb = h.bbox;
-            if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
-                consider(&h.points);
-            }
-        }
-        consider(&self.wall.points);
+        });
         best.map(|(_, t, c)| (t, c))
     }
 

@@ -35,6 +35,10 @@ fn zigzag_is_one_continuous_road_through_both_cells() {
             m.joint
         );
     }
+    // The fan of MCLs is denser at the holes than at the wall: roads narrow near the holes
+    // and widen away from them.
+    assert!(path.iter().any(|v| v.width < 0.95 * w), "no narrowed road");
+    assert!(path.iter().any(|v| v.width > 1.05 * w), "no widened road");
     // Blended composition: half way along the centre MCL it is half and half.
     let mid = path
         .iter()
@@ -127,6 +131,55 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
     let mut again = Box::new(Path::new());
     work.build(&slice, plan, &mut *again).unwrap();
     assert!(path.iter().eq(again.iter()));
+}
+
+#[test]
+fn tapered_dip_finds_exactly_the_roads_that_reach_a_feature() {
+    // Segments near the left hole with radii tapering from ra to rb: `tapered_dip` reports a
+    // dip exactly when some point of the segment is nearer a feature vertex than the radius
+    // there (brute force over 2000 points; the polygons' vertices are what it checks).
+    let slice = two_circles(Settings::default());
+    let mut seed = 7u32;
+    let mut next = move || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32
+    };
+    let verts: Vec<hollowpath::geometry::Point> = slice
+        .holes()
+        .iter()
+        .flat_map(|h| h.points().iter().copied())
+        .chain(slice.wall().points().iter().copied())
+        .collect();
+    let (mut found, mut clear) = (0, 0);
+    for _ in 0..400 {
+        let p = |x: f32, y: f32| hollowpath::geometry::Point::new(x, y);
+        let a = p(-9.0 + 4.0 * next(), -3.0 + 6.0 * next());
+        let b = p(-9.0 + 4.0 * next(), -3.0 + 6.0 * next());
+        let (ra, rb) = (0.1 + 0.5 * next(), 0.1 + 0.5 * next());
+        if slice.segment_crosses_feature(a, b) {
+            continue;
+        }
+        // The deepest intrusion of a feature vertex into the road, by brute force.
+        let mut depth = f32::NEG_INFINITY;
+        for k in 0..=2000 {
+            let t = k as f32 / 2000.0;
+            let c = a.lerp(b, t);
+            let r = ra + (rb - ra) * t;
+            for q in &verts {
+                depth = depth.max(r - c.dist(*q));
+            }
+        }
+        let got = slice.tapered_dip(a, b, ra, rb);
+        if depth > 1e-3 {
+            let (t, c) = got.unwrap_or_else(|| panic!("missed a dip {depth} on {a:?}-{b:?}"));
+            assert!(c.dist(a.lerp(b, t)) < 1e-4);
+            found += 1;
+        } else if depth < -1e-3 {
+            assert!(got.is_none(), "false dip on {a:?}-{b:?}");
+            clear += 1;
+        }
+    }
+    assert!(found > 20 && clear > 20, "{found} {clear}");
 }
 
 #[test]

@@ -283,6 +283,38 @@ fn slice_level_errors() {
             SettingId::RelaxSpacing,
             -0.1,
         ),
+        (
+            Settings {
+                min_width: 0.5,
+                ..Settings::default()
+            },
+            SettingId::MinWidth,
+            0.5,
+        ),
+        (
+            Settings {
+                min_width: 0.0,
+                ..Settings::default()
+            },
+            SettingId::MinWidth,
+            0.0,
+        ),
+        (
+            Settings {
+                max_width: 0.3,
+                ..Settings::default()
+            },
+            SettingId::MaxWidth,
+            0.3,
+        ),
+        (
+            Settings {
+                max_width: 1.3,
+                ..Settings::default()
+            },
+            SettingId::MaxWidth,
+            1.3,
+        ),
     ] {
         assert_eq!(
             Slice::new(wall(), std::slice::from_ref(&h), settings),

@@ -117,7 +117,8 @@ pub type ParsedLayer = (Option<String>, Vec<Vertex>);
 /// the move extrudes (`E` > 0 under `M83`, `E` growing under `M82`), with the road width the
 /// extruded volume gives over the move's length (the header's `; layer_height` and
 /// `; filament_diameter`; the header's `; road_width` where the move has no length, or on a
-/// travel move); `M165` sets the
+/// travel move; so a vertex read back carries the mean width of the move into it, and a parsed
+/// road tapers between those means); `M165` sets the
 /// composition (normalised; channel A alone before the first); `G90`/`G91` switch absolute and
 /// relative positions, `G92 E` resets an absolute `E`; a `; layer` comment, or a `Z` change in
 /// a layer that already has vertices, starts a new layer. Anything else is ignored.

@@ -192,7 +192,7 @@ fn run(
         let vertices: Vec<_> = l
             .path
             .iter()
-            .map(|v| serde_json::json!({"at": [v.at.x, v.at.y], "deposit": v.deposit, "material": v.material}))
+            .map(|v| serde_json::json!({"at": [v.at.x, v.at.y], "deposit": v.deposit, "material": v.material, "width": v.width}))
             .collect();
         let doc = serde_json::json!({"layer": l.index, "pattern": l.pattern.name(), "vertices": vertices});
         write(

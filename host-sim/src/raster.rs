@@ -216,10 +216,11 @@ impl Raster {
         rb: f32,
         mut visit: impl FnMut(Hit),
     ) {
-        let radius = ra.max(rb);
-        if radius.is_nan() || ra < 0.0 || rb < 0.0 || radius <= 0.0 {
+        // Not both radii a number >= 0 (NaN fails every comparison), or nothing wide.
+        if !(ra >= 0.0 && rb >= 0.0) || ra.max(rb) <= 0.0 {
             return;
         }
+        let radius = ra.max(rb);
         if !a.is_finite() || !b.is_finite() {
             return;
         }

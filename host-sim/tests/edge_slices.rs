@@ -71,6 +71,31 @@ fn edge_slices_plan_correctly_or_are_refused() {
             road_stays_in_region(&slice, &l.path)
                 .unwrap_or_else(|e| panic!("{name} {:?} {f:?}: {e}", l.pattern));
         }
+        // The default layers: the zigzag with its widened and narrowed roads, and the offset
+        // spiral; at most 1 + holes starts (the bar; the aim, met on the reference
+        // slices, is 1), within the width limits, never leaving the region.
+        for index in 0..2 {
+            let l = layer(&slice, plan, Fill::Offset, index)
+                .unwrap_or_else(|e| panic!("{name} default {index}: {e}"));
+            road_stays_in_region(&slice, &l.path)
+                .unwrap_or_else(|e| panic!("{name} {:?}: {e}", l.pattern));
+            let (lo, hi) = (slice.settings().min_width, slice.settings().max_width);
+            assert!(
+                l.path
+                    .iter()
+                    .all(|v| v.width >= lo - 6.1e-3 && v.width <= hi),
+                "{name} {:?}: width out of limits",
+                l.pattern
+            );
+            let starts = (1..l.path.len())
+                .filter(|&i| l.path[i].deposit && (i == 1 || !l.path[i - 1].deposit))
+                .count();
+            assert!(
+                starts <= 1 + slice.holes().len(),
+                "{name} {:?}: {starts} starts",
+                l.pattern
+            );
+        }
         for index in 0..2 {
             if let Ok(l) = layer(&slice, plan, Fill::Raster, index) {
                 road_stays_in_region(&slice, &l.path)

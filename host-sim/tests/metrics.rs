@@ -122,13 +122,14 @@ fn a_single_straight_road_covers_its_capsule() {
 
 #[test]
 fn a_tapered_road_covers_the_hull_of_its_end_discs() {
-    // A road widening from 0.3 mm to 0.6 mm over 5 mm covers the hull of a disc of radius
-    // 0.15 at one end and 0.3 at the other: the two tangent lines make an angle
-    // phi = asin(dr / l) with the axis, so the hull is the trapezoid between the four tangent
-    // points plus the circular segment of each disc beyond it, in closed form.
+    // A road widening from 0.2 mm to 1.2 mm over 1 mm covers the hull of a disc of radius
+    // 0.1 at one end and 0.6 at the other: the two tangent lines make an angle
+    // phi = asin(dr / l) (30 degrees) with the axis, so the hull is the trapezoid between the
+    // four tangent points plus the circular segment of each disc beyond it, in closed form.
+    // (So steep a taper tells the hull from the union of discs along the plain projection.)
     let slice = two_holes();
-    let (a, b) = ((-2.0, -7.0), (3.0, -7.0));
-    let (ra, rb) = (0.15f64, 0.3f64);
+    let (a, b) = ((-2.0, -7.0), (-1.0, -7.0));
+    let (ra, rb) = (0.1f64, 0.6f64);
     let l = dist(a, b);
     let path = [
         Vertex {

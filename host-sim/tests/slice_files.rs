@@ -32,6 +32,27 @@ fn a_valid_minimal_file_parses() {
 }
 
 #[test]
+fn road_width_limits_are_read_and_checked() {
+    let f = parse(&slice(
+        SQUARE,
+        &[SMALL],
+        r#""road_width": 0.4, "min_width": 0.3, "max_width": 0.8"#,
+    ))
+    .unwrap();
+    let s = f.slice.settings();
+    assert_eq!((s.min_width, s.max_width), (0.3, 0.8));
+    // Defaults scale with the road width.
+    let f = parse(&slice(SQUARE, &[SMALL], r#""road_width": 0.5"#)).unwrap();
+    let s = f.slice.settings();
+    assert!((s.min_width - 0.25).abs() < 1e-6 && (s.max_width - 0.8).abs() < 1e-6);
+    // The narrowest road is no wider than a road, the widest no narrower.
+    let e = err(&slice(SQUARE, &[SMALL], r#""min_width": 0.6"#));
+    assert!(e.contains("min_width"), "{e}");
+    let e = err(&slice(SQUARE, &[SMALL], r#""max_width": 0.2"#));
+    assert!(e.contains("max_width"), "{e}");
+}
+
+#[test]
 fn reference_slices_parse() {
     for (name, text) in REFERENCE_SLICES {
         parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -63,7 +63,8 @@ pub struct Vertex {
     /// within the slice's [`Settings::min_width`](crate::Settings::min_width) ..
     /// [`max_width`](crate::Settings::max_width), so the deposit fills the gap between them
     /// (the extrusion rate per millimetre follows the width). Never more than twice the
-    /// vertex's clearance from the features: a wide road does not spill.
+    /// vertex's clearance from the features (every layer's moves pass through a check that
+    /// narrows, bends or drops a move that would not fit): a wide road does not spill.
     pub width: f32,
     /// Whether the move from the previous vertex into this one deposits a road; `false` is a
     /// travel move with the valves shut. The first vertex of a layer is always reached by
@@ -200,8 +201,10 @@ pub(crate) fn emit(sink: &mut impl PathSink, v: Vertex) -> Result<(), Error> {
     })
 }
 
-/// Appends `v` to `sink` as [`emit`] does, keeping a depositing move in the material: where
-/// its straight chord would cut into a keep-out band (half the road's width from a feature:
+/// Appends `v` to `sink` as [`emit`] does, keeping a depositing move in the material: a vertex
+/// with less room than its width is pushed out of the keep-out band (half its width from the
+/// feature), or, in a pinch with no room for that but room for the slice's narrowest road,
+/// narrowed to fit; where its straight chord would cut into a keep-out band (half the road's width from a feature:
 /// the sagitta of a chord across a convex feature, or a chord across a whole feature) the move
 /// is bent, point by point pushed out to exactly half the road's width, with the composition
 /// and width blended along the move; a piece that still cannot be deposited inside the region
@@ -214,9 +217,14 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
             // feature's band where features are closer than a road width).
             let mut v = v;
             if !slice.fits(v.at, v.width, 1e-4) {
+                // Pushed out of the keep-out band; where that leaves no room (a pinch between
+                // features) but there is room for the narrowest road, narrowed instead.
                 let (pushed, _) = into_region(slice, v.at, 0.5 * v.width);
+                let room = 2.0 * slice.clearance(v.at) - 2e-4;
                 if slice.fits(pushed, v.width, 1e-4) {
                     v.at = pushed;
+                } else if room >= slice.settings().min_width {
+                    v.width = room;
                 } else {
                     return emit(
                         sink,
@@ -268,24 +276,27 @@ fn bend(
         );
     }
     let (t, c) = dip.unwrap_or((0.5, a.at.lerp(b.at, 0.5)));
+    let width = a.width + (b.width - a.width) * t;
+    // Pushed out half the wider end's width from the feature; where that leaves no room (a
+    // pinch) but there is room for the narrowest road, the move narrows there instead.
     let (pushed, onto) = into_region(slice, c, half);
+    let room = 2.0 * slice.clearance(c) - 2e-4;
+    let (pushed, onto, width) =
+        if slice.fits(pushed, width, 1e-4) || crossing || room < slice.settings().min_width {
+            (pushed, onto, width)
+        } else {
+            (c, None, width.min(room))
+        };
     // A point put on a feature's keep-out curve deposits at that feature: its material.
     let material = match onto {
         Some(FeatureId::Hole(i)) => slice.holes()[i as usize].material(),
         Some(FeatureId::Wall) => slice.wall().material(),
         None => composition::blend(&a.material, &b.material, t),
     };
-    // A point put on a keep-out curve is half the wider end's width from its feature: no
-    // wider.
-    let width = a.width + (b.width - a.width) * t;
     let mid = Vertex {
         at: pushed,
         material,
-        width: if onto.is_some() {
-            width.min(2.0 * half)
-        } else {
-            width
-        },
+        width,
         deposit: true,
     };
     if pushed.dist(a.at) < 1e-6 || pushed.dist(b.at) < 1e-6 || !slice.fits(pushed, mid.width, 1e-4)

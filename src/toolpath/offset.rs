@@ -62,6 +62,8 @@ const RIDGE_STEPS: u32 = 14;
 /// polygons, well under this. Two parts of a non-convex feature facing each other fall short
 /// at a good fraction of `t`.
 const RIDGE_TOL_PER_ROAD: f32 = 0.01;
+/// Where a turn's road widens, the longest straight piece it is laid in, road widths.
+const WIDTH_STEP: f32 = 0.5;
 /// How far short of a ridge a widened road stops, mm: the chords of the two sides' roads may
 /// cross it by their sagitta.
 const RIDGE_MARGIN: f32 = 2e-3;
@@ -243,7 +245,13 @@ fn widened(slice: &Slice, p: Point, laid: impl Fn(Point, u16) -> bool) -> (Point
         } else {
             0.0
         };
-        if gap(f, ridge) >= -tol {
+        // A hole whose box is at least `d + 2 reach` away is farther than `d + t` from every
+        // point of the ray within reach (its distance falls by at most `t`).
+        let far = slice
+            .holes()
+            .get(f)
+            .is_some_and(|h| f != own && polygon::bbox_distance(h.bbox(), p) >= d + 2.0 * reach);
+        if far || gap(f, ridge) >= -tol {
             continue;
         }
         let (mut lo, mut hi) = (0.0f32, ridge);
@@ -268,8 +276,45 @@ fn widened(slice: &Slice, p: Point, laid: impl Fn(Point, u16) -> bool) -> (Point
             return (p, w);
         }
     }
-    (p + n * (0.5 * g), w + g)
+    // Where the ridge bends toward the road (near a corner where two features' turns meet),
+    // the widened road's round edge would cross it sideways onto the other side's road:
+    // widen less, or not at all.
+    let in_cell = |q: Point| {
+        let mine = feature_distance(slice, own, q);
+        (0..=holes).all(|f| f == own || feature_distance(slice, f, q) >= mine)
+    };
+    let mut g = g;
+    for _ in 0..WIDEN_TRIES {
+        let (c, r) = (p + n * (0.5 * g), 0.5 * (w + g));
+        if EDGE_DIRECTIONS
+            .iter()
+            .all(|&(x, y)| in_cell(c + Point::new(x, y) * r))
+        {
+            return (c, w + g);
+        }
+        g *= 0.5;
+    }
+    (p, w)
 }
+
+/// Directions (unit vectors, every 30 degrees) in which a widened road's edge must stay in
+/// its feature's cell.
+const EDGE_DIRECTIONS: [(f32, f32); 12] = [
+    (1.0, 0.0),
+    (0.866_025_4, 0.5),
+    (0.5, 0.866_025_4),
+    (0.0, 1.0),
+    (-0.5, 0.866_025_4),
+    (-0.866_025_4, 0.5),
+    (-1.0, 0.0),
+    (-0.866_025_4, -0.5),
+    (-0.5, -0.866_025_4),
+    (0.0, -1.0),
+    (0.5, -0.866_025_4),
+    (0.866_025_4, -0.5),
+];
+/// How many times a widening that crosses the ridge sideways is halved before it is given up.
+const WIDEN_TRIES: u32 = 3;
 
 /// `x` wrapped into `[0, len)`.
 fn wrap(x: f32, len: f32) -> f32 {
@@ -863,6 +908,7 @@ impl OffsetSpiral {
         } else {
             (arc.partition_point(|&a| a < s) + n - 1) % n
         };
+        let mut prev = self.at(l, s);
         for _ in 0..n {
             let along = if forward {
                 wrap(arc[k] - s, len)
@@ -873,7 +919,8 @@ impl OffsetSpiral {
                 break;
             }
             if along > 1e-5 {
-                emit_move(slice, sink, self.vertex(slice, field, pts[k], true))?;
+                self.emit_span(slice, field, sink, prev, pts[k])?;
+                prev = pts[k];
             }
             k = if forward {
                 (k + 1) % n
@@ -882,11 +929,35 @@ impl OffsetSpiral {
             };
         }
         let end = if forward { s + dist } else { s - dist };
-        emit_move(
-            slice,
-            sink,
-            self.vertex(slice, field, self.at(l, end), true),
-        )
+        self.emit_span(slice, field, sink, prev, self.at(l, end))
+    }
+
+    /// Emits the turn's straight piece from `from` (already emitted) to `to`. A piece longer
+    /// than [`WIDTH_STEP`] road widths along which some road widens ([`widened`]) is emitted
+    /// in steps that long, so a width applies where it was found rather than tapering over
+    /// the whole piece.
+    fn emit_span(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        sink: &mut impl PathSink,
+        from: Point,
+        to: Point,
+    ) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let steps = libm::ceilf(from.dist(to) / (WIDTH_STEP * w)).max(1.0) as usize;
+        let at = |k: usize| from.lerp(to, k as f32 / steps as f32);
+        let end = self.vertex(slice, field, to, true);
+        let width_at = |q: Point| widened(slice, q, |q, level| self.laid_at(q, level, 0.1 * w)).1;
+        let start = sink.last_vertex().map_or(w, |v| v.width);
+        let varies =
+            steps > 1 && (start != w || end.width != w || (1..steps).any(|k| width_at(at(k)) != w));
+        if varies {
+            for k in 1..steps {
+                emit_move(slice, sink, self.vertex(slice, field, at(k), true))?;
+            }
+        }
+        emit_move(slice, sink, end)
     }
 
     /// The ends of `site` on loop `l`: `(own gap start, own gap end, other loop, other's gap

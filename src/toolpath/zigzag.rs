@@ -333,8 +333,8 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
             let k = ends.mcls[(id / 2) as usize] as usize;
             let forward = id % 2 == 0;
             let near = neighbours(&ends, (id / 2) as usize);
-            let base = id & !1;
-            let spliced = [base, base + 1]
+            // In walking order: the end it starts from, then the other.
+            let spliced = [id, id ^ 1]
                 .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
             visited[id as usize] = true;
             let other = id ^ 1;
@@ -407,7 +407,8 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
 /// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
 /// in, without gap or overlap. The width stays within the slice's
 /// [`min_width`](crate::Settings::min_width) .. [`max_width`](crate::Settings::max_width) and
-/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side; the
+/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side (the
+/// shift is left out where it would come nearer a feature than half the narrowest road); the
 /// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
 /// where they are and are at most a road width wide, so nothing spills. `dir` is the MCL's
 /// direction at `p`.
@@ -455,17 +456,20 @@ fn road_at(
         (false, false) => (w, w),
     };
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
-    let at = if end {
-        p
+    let clearance = |q: Point| slice.wall_clearance(q).min(slice.nearest_holes(q).1);
+    let cap = |q: Point| 2.0 * (clearance(q) - EDGE_MARGIN);
+    if end {
+        return (p, width.min(w - 2.0 * EDGE_MARGIN));
+    }
+    let shifted = p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width);
+    // The shift toward the wider gap may bring the road nearer a feature than half the
+    // narrowest road: then it stays on its MCL.
+    let at = if cap(shifted) >= settings.min_width {
+        shifted
     } else {
-        p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width)
+        p
     };
-    let clearance = slice
-        .wall_clearance(at)
-        .min(slice.nearest_holes(at).1)
-        .max(0.5 * w);
-    let cap = if end { w } else { 2.0 * clearance } - 2.0 * EDGE_MARGIN;
-    (at, width.min(cap))
+    (at, width.min(cap(at)))
 }
 
 /// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
@@ -497,36 +501,37 @@ fn emit_mcl(
     // The MCL's vertices in walking order, with extra ones near both ends (`END_STEPS`).
     let order = |step: usize| if forward { step } else { n - 1 - step };
     let mut stops: Vec<(Point, Point, f32, bool), { 2 * END_STEPS.len() + 2 }> = Vec::new();
+    // Extra stops on the move from end vertex `e` toward vertex `q`, nearest the end first;
+    // on a move that is both first and last, each end's stay on its own half.
+    let (pts, cum) = (&pts, &cum);
+    let extras = |e: usize, q: usize| {
+        let seg = pts[e].dist(pts[q]);
+        let reach = if n == 2 { 0.5 * seg } else { seg - 1e-4 };
+        END_STEPS
+            .iter()
+            .filter(move |&&f| f * w < reach)
+            .map(move |&f| {
+                let t = f * w / seg;
+                let at_cum = cum[e] + (cum[q] - cum[e]) * t;
+                (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
+            })
+    };
     for step in 0..n {
         let i = order(step);
         let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
         let is_end = step == 0 || step + 1 == n;
         stops.clear();
         if step + 1 == n && n >= 2 {
-            // Approaching the far end: extra vertices at END_STEPS before it.
-            let prev = pts[order(step - 1)];
-            let seg = prev.dist(pts[i]);
-            for &f in END_STEPS.iter().rev() {
-                let d = f * w;
-                if d < seg - 1e-4 {
-                    let t = 1.0 - d / seg;
-                    let at_cum = cum[order(step - 1)] + (cum[i] - cum[order(step - 1)]) * t;
-                    let _ = stops.push((prev.lerp(pts[i], t), pts[i] - prev, at_cum, false));
-                }
+            // Approaching the far end.
+            for stop in extras(i, order(step - 1)).rev() {
+                let _ = stops.push(stop);
             }
         }
         let _ = stops.push((pts[i], dir, cum[i], is_end));
         if step == 0 && n >= 2 {
-            // Leaving the first end: extra vertices at END_STEPS after it.
-            let next = pts[order(1)];
-            let seg = next.dist(pts[i]);
-            for &f in END_STEPS.iter() {
-                let d = f * w;
-                if d < seg - 1e-4 {
-                    let t = d / seg;
-                    let at_cum = cum[i] + (cum[order(1)] - cum[i]) * t;
-                    let _ = stops.push((pts[i].lerp(next, t), next - pts[i], at_cum, false));
-                }
+            // Leaving the first end.
+            for stop in extras(i, order(1)) {
+                let _ = stops.push(stop);
             }
         }
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
@@ -568,10 +573,10 @@ enum Arc {
     Inner,
 }
 
-/// The arc of curve `c` from end `from` to end `to`: which way it runs (forward: increasing
-/// arc length), the way that passes no ends but those the arc spans, and its [`Arc`] role.
-fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bool, Arc) {
-    let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
+/// The ends of curve `c` strictly between `from` and `to` going forward (increasing arc
+/// length) or back: how many, and whether they are paired among themselves (arcs never
+/// cross, so an arc may pass over only an arc nested inside it).
+fn spanned(ends: &Ends, c: usize, from: u16, to: u16, forward: bool) -> (usize, bool) {
     let (lo, hi) = ends.ranges[c];
     let (lo, n) = (lo as usize, (hi - lo) as usize);
     let pos = |id: u16| {
@@ -581,25 +586,50 @@ fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bo
             .unwrap_or(0)
     };
     let (pf, pt) = (pos(from), pos(to));
-    let steps_forward = (pt + n - pf) % n;
-    let forward = if n <= 2 {
-        curve.wrap(s1 - s0) <= curve.wrap(s0 - s1)
-    } else {
-        steps_forward <= n / 2
-    };
-    if n < 4 {
-        return (forward, Arc::Plain);
-    }
-    // The end `k` steps from `p` along the arc's direction.
-    let at = |p: usize, k: isize| {
-        let step = if forward { k } else { -k };
-        ends.order[lo + (p as isize + step).rem_euclid(n as isize) as usize]
-    };
-    let spanned = if forward {
-        steps_forward
+    let count = if forward {
+        (pt + n - pf) % n
     } else {
         (pf + n - pt) % n
-    } - 1;
+    }
+    .saturating_sub(1);
+    let inside = |id: u16| {
+        let k = pos(id);
+        let d = if forward {
+            (k + n - pf) % n
+        } else {
+            (pf + n - k) % n
+        };
+        d >= 1 && d <= count
+    };
+    let closed = (1..=count).all(|k| {
+        let p = if forward { pf + k } else { pf + n - k } % n;
+        let e = ends.order[lo + p % n];
+        let mate = ends.arc[e as usize];
+        mate != NONE && inside(mate)
+    });
+    (count, closed)
+}
+
+/// The arc of curve `c` from end `from` to end `to`: which way it runs (forward: increasing
+/// arc length; [`arc_of_direction`]), and its [`Arc`] role.
+fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bool, Arc) {
+    let s0 = ends.param[from as usize];
+    let (forward, _) = arc_of_direction(ends, curve, c, from, to);
+    let (count, closed) = spanned(ends, c, from, to, forward);
+    let (lo, hi) = ends.ranges[c];
+    let (lo, n) = (lo as usize, (hi - lo) as usize);
+    if n < 4 || !closed {
+        return (forward, Arc::Plain);
+    }
+    let pf = ends.order[lo..lo + n]
+        .iter()
+        .position(|&e| e == from)
+        .unwrap_or(0);
+    // The end `k` steps from `from` along the arc's direction.
+    let at = |k: isize| {
+        let step = if forward { k } else { -k };
+        ends.order[lo + (pf as isize + step).rem_euclid(n as isize) as usize]
+    };
     let along = |id: u16| {
         let s = ends.param[id as usize];
         if forward {
@@ -608,22 +638,43 @@ fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bo
             curve.wrap(s0 - s)
         }
     };
-    match spanned {
-        2 => {
-            let (x, y) = (at(pf, 1), at(pf, 2));
-            if ends.arc[x as usize] == y {
-                return (forward, Arc::Outer(along(x), along(y)));
-            }
-        }
+    match count {
+        // Over a nested arc: the outer arc of a splice.
+        2 => (forward, Arc::Outer(along(at(1)), along(at(2)))),
+        // Under one: the arc from the end before to the end after passes over exactly these
+        // two.
         0 => {
-            let (before, after) = (at(pf, -1), at(pt, 1));
-            if ends.arc[before as usize] == after {
-                return (forward, Arc::Inner);
-            }
+            let (before, after) = (at(-1), at(2));
+            let outer = ends.arc[before as usize] == after && {
+                let (fwd, _) = arc_of_direction(ends, curve, c, before, after);
+                fwd == forward && spanned(ends, c, before, after, fwd) == (2, true)
+            };
+            (forward, if outer { Arc::Inner } else { Arc::Plain })
         }
-        _ => {}
+        _ => (forward, Arc::Plain),
     }
-    (forward, Arc::Plain)
+}
+
+/// Which way the arc of curve `c` from `from` to `to` runs, and over how many ends: the way
+/// that passes over no end but those of an arc nested inside it; of two such ways (or none),
+/// the one over fewer ends, then the shorter.
+fn arc_of_direction(
+    ends: &Ends,
+    curve: &KeepOut<'_>,
+    c: usize,
+    from: u16,
+    to: u16,
+) -> (bool, usize) {
+    let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
+    let ways = [true, false].map(|fwd| spanned(ends, c, from, to, fwd));
+    let shorter = curve.wrap(s1 - s0) <= curve.wrap(s0 - s1);
+    let forward = match (ways[0], ways[1]) {
+        ((_, true), (_, false)) => true,
+        ((_, false), (_, true)) => false,
+        ((a, _), (b, _)) if a != b => a < b,
+        _ => shorter,
+    };
+    (forward, ways[usize::from(!forward)].0)
 }
 
 /// Whether end `id` starts or ends a splice's inner arc ([`Arc::Inner`]).
@@ -643,7 +694,9 @@ fn inner_end(ends: &Ends, curves: &[KeepOut<'_>], id: u16) -> bool {
 /// overlapping) when it does not; their outer edges [`EDGE_MARGIN`] inside the strip.
 fn shared_strip(slice: &Slice) -> (f32, f32, f32) {
     let w = slice.settings().road_width;
-    let share = (0.5 * w - 2.0 * EDGE_MARGIN).max(slice.settings().min_width);
+    let share = (0.5 * w - 2.0 * EDGE_MARGIN)
+        .max(slice.settings().min_width)
+        .min(w - 2.0 * EDGE_MARGIN);
     let nearer = 0.5 * share + EDGE_MARGIN - 0.5 * w;
     let farther = 0.5 * w - 0.5 * share - EDGE_MARGIN;
     (share, nearer, farther)

@@ -70,9 +70,9 @@ pub fn check_layer_with(
         if !v.at.is_finite() {
             return Err(format!("vertex {i} not finite"));
         }
-        // Within the slice's width limits (roads along a keep-out curve keep a few microns
-        // off its edge).
-        if !(v.width >= settings.min_width - 0.01 && v.width <= settings.max_width + 1e-6) {
+        // Within the slice's width limits (roads along a keep-out curve keep 3 microns off its
+        // edge each side).
+        if !(v.width >= settings.min_width - 6.1e-3 && v.width <= settings.max_width + 1e-6) {
             return Err(format!("vertex {i}: width {}", v.width));
         }
         let sum: f32 = v.material.iter().sum();
