@@ -167,21 +167,36 @@ impl Default for OffsetSpiral {
     }
 }
 
-/// The distance `D` from `p` to the nearest feature (positive in the material), its gradient,
-/// and the material of that feature.
-fn distance(slice: &Slice, p: Point) -> (f32, Point, Material) {
+/// The feature nearest to `p` (a hole index, or `holes` for the wall), the distance `D` to it
+/// (positive in the material) and its gradient.
+fn nearest(slice: &Slice, p: Point) -> (usize, f32, Point) {
     let nw = slice.wall().nearest(p);
-    let mut best = (-nw.distance, -nw.gradient(p), slice.wall().material());
-    for h in slice.holes() {
-        if polygon::bbox_distance(h.bbox(), p) >= best.0 {
+    let mut best = (slice.holes().len(), -nw.distance, -nw.gradient(p));
+    for (k, h) in slice.holes().iter().enumerate() {
+        if polygon::bbox_distance(h.bbox(), p) >= best.1 {
             continue;
         }
         let n = h.nearest(p);
-        if n.distance < best.0 {
-            best = (n.distance, n.gradient(p), h.material());
+        if n.distance < best.1 {
+            best = (k, n.distance, n.gradient(p));
         }
     }
     best
+}
+
+/// The material of feature `f` (a hole index, or `holes` for the wall).
+fn material_of(slice: &Slice, f: usize) -> Material {
+    slice
+        .holes()
+        .get(f)
+        .map_or(slice.wall().material(), |h| h.material())
+}
+
+/// The distance `D` from `p` to the nearest feature (positive in the material), its gradient,
+/// and the material of that feature.
+fn distance(slice: &Slice, p: Point) -> (f32, Point, Material) {
+    let (f, d, g) = nearest(slice, p);
+    (d, g, material_of(slice, f))
 }
 
 /// The distance from `p` to feature `f` (a hole index, or `holes` for the wall), positive in
@@ -193,7 +208,9 @@ fn feature_distance(slice: &Slice, f: usize, p: Point) -> f32 {
     }
 }
 
-/// A turn's point `p` widened into the gap it leaves before a ridge, and the road width there.
+/// A turn's point `p` widened into the gap it leaves before a ridge, and the road width there;
+/// `own`, `d` and `n` are its nearest feature, the distance to it and the gradient
+/// ([`nearest`]).
 ///
 /// Turns lie at fixed distances from the features, so where two features' turns meet at the
 /// ridge between them (the bisector, where the distances agree) the last turn on each side
@@ -201,33 +218,26 @@ fn feature_distance(slice: &Slice, f: usize, p: Point) -> f32 {
 /// line inside the feature's cell), the ridge lies where another feature's distance `D_j(p + t
 /// n)` drops to `D(p) + t` (or the feature's own distance falls behind `D(p) + t`, at a ridge
 /// between two parts of one non-convex feature); the function `D_j(p + t n) - D(p) - t` only
-/// falls (`D_j` is 1-Lipschitz), so bisection finds it. If it lies closer than a road width `w` there is no
-/// next turn beyond `p`: the road widens by the sliver `g` (the ridge's distance beyond the
+/// falls (`D_j` is 1-Lipschitz), so bisection finds it. If it lies closer than a road width `w`
+/// there is no next turn beyond `p`: the road widens by the sliver `g` (the ridge's distance
+/// beyond the
 /// road's outer edge, `t - w/2`) and its centre moves `g/2` outward, so its inner edge stays
 /// where it was and its outer edge reaches the ridge, where the other side's last turn, widened
 /// the same way, meets it. Where the next turn does cross the ray but was left out (a small
 /// loop no join reached, `laid(q, level)` false at its crossing `q`), the road widens the same
 /// way as far as [`Settings::max_width`] allows. The road is never wider than
-/// [`Settings::max_width`], and half its
-/// width never exceeds its clearance (`D` grows by `g/2`, and every other feature is at least
-/// that far: it is farther than the ridge).
+/// [`Settings::max_width`], and half its width never exceeds its clearance (`D` grows by `g/2`,
+/// and every other feature is at least that far: it is farther than the ridge).
 ///
 /// [`Settings::max_width`]: crate::Settings::max_width
-fn widened(slice: &Slice, p: Point, laid: impl Fn(Point, u16) -> bool) -> (Point, f32) {
+fn widened(
+    slice: &Slice,
+    p: Point,
+    (own, d, n): (usize, f32, Point),
+    laid: impl Fn(Point, u16) -> bool,
+) -> (Point, f32) {
     let w = slice.settings().road_width;
     let holes = slice.holes().len();
-    // The nearest feature, its distance and the gradient.
-    let nw = slice.wall().nearest(p);
-    let (mut own, mut d, mut n) = (holes, -nw.distance, -nw.gradient(p));
-    for (k, h) in slice.holes().iter().enumerate() {
-        if polygon::bbox_distance(h.bbox(), p) >= d {
-            continue;
-        }
-        let near = h.nearest(p);
-        if near.distance < d {
-            (own, d, n) = (k, near.distance, near.gradient(p));
-        }
-    }
     let len = n.norm();
     if len < 1e-6 {
         return (p, w);
@@ -866,18 +876,23 @@ impl OffsetSpiral {
         })
     }
 
+    /// [`widened`] at `p` (whose nearest feature is `near`), against this layer's laid loops.
+    fn widen(&self, slice: &Slice, p: Point, near: (usize, f32, Point)) -> (Point, f32) {
+        let tol = 0.1 * slice.settings().road_width;
+        widened(slice, p, near, |q, level| self.laid_at(q, level, tol))
+    }
+
     /// The vertex at `p`, with its composition and its road width ([`widened`] at ridges).
     fn vertex(&self, slice: &Slice, field: &BlendedField, p: Point, deposit: bool) -> Vertex {
         let half = 0.5 * slice.settings().road_width;
-        let (d, _, m) = distance(slice, p);
-        let material = if d < half + 2.0 * FIRST_TURN_MARGIN {
-            m
+        let near = nearest(slice, p);
+        let own = material_of(slice, near.0);
+        let material = if near.1 < half + 2.0 * FIRST_TURN_MARGIN {
+            own
         } else {
-            field.at(p).unwrap_or(m)
+            field.at(p).unwrap_or(own)
         };
-        let (at, width) = widened(slice, p, |q, level| {
-            self.laid_at(q, level, 0.1 * slice.settings().road_width)
-        });
+        let (at, width) = self.widen(slice, p, near);
         Vertex {
             at,
             material,
@@ -948,7 +963,7 @@ impl OffsetSpiral {
         let steps = libm::ceilf(from.dist(to) / (WIDTH_STEP * w)).max(1.0) as usize;
         let at = |k: usize| from.lerp(to, k as f32 / steps as f32);
         let end = self.vertex(slice, field, to, true);
-        let width_at = |q: Point| widened(slice, q, |q, level| self.laid_at(q, level, 0.1 * w)).1;
+        let width_at = |q: Point| self.widen(slice, q, nearest(slice, q)).1;
         let start = sink.last_vertex().map_or(w, |v| v.width);
         let varies =
             steps > 1 && (start != w || end.width != w || (1..steps).any(|k| width_at(at(k)) != w));

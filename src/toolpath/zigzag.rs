@@ -65,6 +65,8 @@ struct Ends {
     param: [f32; ENDS],
     /// End ids sorted by (curve, param).
     order: Vec<u16, ENDS>,
+    /// Where each end stands in `order`, counted from the start of its curve's range.
+    slot: [u16; ENDS],
     /// For each curve, its range in `order`.
     ranges: Vec<(u16, u16), 9>,
     /// The arc partner of each end (NONE if unpaired).
@@ -98,6 +100,7 @@ impl Ends {
             order: Vec::new(),
             ranges: Vec::new(),
             arc: [NONE; ENDS],
+            slot: [0; ENDS],
             count: 2 * mcls.len(),
         };
         for (k, &mk) in mcls.iter().enumerate() {
@@ -131,6 +134,9 @@ impl Ends {
             let mut end = start;
             while end < e.count && e.curve[e.order[end] as usize] as usize == c {
                 end += 1;
+            }
+            for k in start..end {
+                e.slot[e.order[k] as usize] = (k - start) as u16;
             }
             let _ = e.ranges.push((start as u16, end as u16));
             start = end;
@@ -383,12 +389,7 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
     for (slot, id) in [2 * i, 2 * i + 1].into_iter().enumerate() {
         let (lo, hi) = ends.ranges[ends.curve[id] as usize];
         let (lo, n) = (lo as usize, (hi - lo) as usize);
-        let Some(pos) = ends.order[lo..lo + n]
-            .iter()
-            .position(|&e| e as usize == id)
-        else {
-            continue;
-        };
+        let pos = ends.slot[id] as usize;
         for (side, step) in [n - 1, 1].into_iter().enumerate() {
             let other = ends.order[lo + (pos + step) % n] as usize / 2;
             if other != i {
@@ -456,8 +457,7 @@ fn road_at(
         (false, false) => (w, w),
     };
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
-    let clearance = |q: Point| slice.wall_clearance(q).min(slice.nearest_holes(q).1);
-    let cap = |q: Point| 2.0 * (clearance(q) - EDGE_MARGIN);
+    let cap = |q: Point| 2.0 * (slice.clearance(q) - EDGE_MARGIN);
     if end {
         return (p, width.min(w - 2.0 * EDGE_MARGIN));
     }
@@ -579,33 +579,24 @@ enum Arc {
 fn spanned(ends: &Ends, c: usize, from: u16, to: u16, forward: bool) -> (usize, bool) {
     let (lo, hi) = ends.ranges[c];
     let (lo, n) = (lo as usize, (hi - lo) as usize);
-    let pos = |id: u16| {
-        ends.order[lo..lo + n]
-            .iter()
-            .position(|&e| e == id)
-            .unwrap_or(0)
-    };
-    let (pf, pt) = (pos(from), pos(to));
-    let count = if forward {
-        (pt + n - pf) % n
-    } else {
-        (pf + n - pt) % n
-    }
-    .saturating_sub(1);
-    let inside = |id: u16| {
-        let k = pos(id);
-        let d = if forward {
+    // Steps from `from` to end `id` in the direction of travel.
+    let steps = |id: u16| {
+        let (pf, k) = (
+            ends.slot[from as usize] as usize,
+            ends.slot[id as usize] as usize,
+        );
+        if forward {
             (k + n - pf) % n
         } else {
             (pf + n - k) % n
-        };
-        d >= 1 && d <= count
+        }
     };
+    let count = steps(to).saturating_sub(1);
+    let pf = ends.slot[from as usize] as usize;
     let closed = (1..=count).all(|k| {
-        let p = if forward { pf + k } else { pf + n - k } % n;
-        let e = ends.order[lo + p % n];
-        let mate = ends.arc[e as usize];
-        mate != NONE && inside(mate)
+        let p = if forward { pf + k } else { pf + n - k };
+        let mate = ends.arc[ends.order[lo + p % n] as usize];
+        mate != NONE && (1..=count).contains(&steps(mate))
     });
     (count, closed)
 }
@@ -614,17 +605,13 @@ fn spanned(ends: &Ends, c: usize, from: u16, to: u16, forward: bool) -> (usize, 
 /// arc length; [`arc_of_direction`]), and its [`Arc`] role.
 fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bool, Arc) {
     let s0 = ends.param[from as usize];
-    let (forward, _) = arc_of_direction(ends, curve, c, from, to);
-    let (count, closed) = spanned(ends, c, from, to, forward);
+    let (forward, (count, closed)) = arc_of_direction(ends, curve, c, from, to);
     let (lo, hi) = ends.ranges[c];
     let (lo, n) = (lo as usize, (hi - lo) as usize);
     if n < 4 || !closed {
         return (forward, Arc::Plain);
     }
-    let pf = ends.order[lo..lo + n]
-        .iter()
-        .position(|&e| e == from)
-        .unwrap_or(0);
+    let pf = ends.slot[from as usize] as usize;
     // The end `k` steps from `from` along the arc's direction.
     let at = |k: isize| {
         let step = if forward { k } else { -k };
@@ -646,8 +633,7 @@ fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bo
         0 => {
             let (before, after) = (at(-1), at(2));
             let outer = ends.arc[before as usize] == after && {
-                let (fwd, _) = arc_of_direction(ends, curve, c, before, after);
-                fwd == forward && spanned(ends, c, before, after, fwd) == (2, true)
+                arc_of_direction(ends, curve, c, before, after) == (forward, (2, true))
             };
             (forward, if outer { Arc::Inner } else { Arc::Plain })
         }
@@ -655,16 +641,16 @@ fn arc_of(ends: &Ends, curve: &KeepOut<'_>, c: usize, from: u16, to: u16) -> (bo
     }
 }
 
-/// Which way the arc of curve `c` from `from` to `to` runs, and over how many ends: the way
-/// that passes over no end but those of an arc nested inside it; of two such ways (or none),
-/// the one over fewer ends, then the shorter.
+/// Which way the arc of curve `c` from `from` to `to` runs, and what it passes over
+/// ([`spanned`]): the way that passes over no end but those of an arc nested inside it; of
+/// two such ways (or none), the one over fewer ends, then the shorter.
 fn arc_of_direction(
     ends: &Ends,
     curve: &KeepOut<'_>,
     c: usize,
     from: u16,
     to: u16,
-) -> (bool, usize) {
+) -> (bool, (usize, bool)) {
     let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
     let ways = [true, false].map(|fwd| spanned(ends, c, from, to, fwd));
     let shorter = curve.wrap(s1 - s0) <= curve.wrap(s0 - s1);
@@ -674,7 +660,7 @@ fn arc_of_direction(
         ((a, _), (b, _)) if a != b => a < b,
         _ => shorter,
     };
-    (forward, ways[usize::from(!forward)].0)
+    (forward, ways[usize::from(!forward)])
 }
 
 /// Whether end `id` starts or ends a splice's inner arc ([`Arc::Inner`]).
