@@ -3,6 +3,7 @@
 mod common;
 
 use common::{check_layer, starts, two_circles};
+use hollowpath::geometry::Point;
 use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
@@ -209,4 +210,79 @@ fn a_full_sink_is_a_capacity_error() {
             feature: None
         }
     );
+}
+
+proptest::proptest! {
+    /// A move split for a printer: contiguous pieces from one end to the other, each one width
+    /// that is never wider than the road and at most 5 % narrower anywhere along the piece, and
+    /// one mix within 0.02 of the road's along it.
+    #[test]
+    fn a_split_move_stays_within_its_road(
+        ax in -50.0f32..50.0, ay in -50.0f32..50.0, dx in -5.0f32..5.0, dy in -5.0f32..5.0,
+        wa in 0.1f32..1.2, wb in 0.1f32..1.2, ta in 0.0f32..1.0, tb in 0.0f32..1.0,
+    ) {
+        use hollowpath::toolpath::moves::{split, Move, MIX_TOLERANCE, WIDTH_TOLERANCE};
+
+        let mat = |t: f32| [1.0 - t, t, 0.0, 0.0];
+        let a = Vertex { at: Point::new(ax, ay), material: mat(ta), width: wa, deposit: true };
+        let b = Vertex { at: Point::new(ax + dx, ay + dy), material: mat(tb), width: wb, deposit: true };
+        // Within the cap of pieces (a width ratio of up to 7.4 along one move; the default
+        // settings allow 3.2).
+        proptest::prop_assume!(wa.max(wb) <= 6.0 * wa.min(wb));
+        let mut pieces: Vec<Move> = Vec::new();
+        split(&a, &b, |m| pieces.push(m));
+        proptest::prop_assert!(!pieces.is_empty());
+        proptest::prop_assert_eq!(pieces[0].from, a.at);
+        proptest::prop_assert_eq!(pieces.last().unwrap().to, b.at);
+        proptest::prop_assert_eq!(pieces.last().unwrap().material, b.material);
+        let n = pieces.len() as f32;
+        for (k, m) in pieces.iter().enumerate() {
+            proptest::prop_assert!(m.deposit);
+            if k > 0 {
+                proptest::prop_assert_eq!(m.from, pieces[k - 1].to);
+            }
+            // The road's width and mix at the piece's ends (equal pieces: t = k / n).
+            let (t0, t1) = (k as f32 / n, (k + 1) as f32 / n);
+            for t in [t0, t1] {
+                let road = wa + (wb - wa) * t;
+                proptest::prop_assert!(m.width <= road * (1.0 + 1e-5), "{m:?} road {road}");
+                proptest::prop_assert!(m.width >= road * (1.0 - WIDTH_TOLERANCE) * (1.0 - 1e-5), "{m:?} road {road}");
+                let mix = ta + (tb - ta) * t;
+                proptest::prop_assert!((m.material[1] - mix).abs() <= MIX_TOLERANCE * (1.0 + 1e-4), "{m:?} mix {mix}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_travel_move_is_one_move_and_a_constant_road_is_not_split() {
+    use hollowpath::toolpath::moves::split;
+
+    let a = Vertex {
+        at: Point::new(0.0, 0.0),
+        material: [1.0, 0.0, 0.0, 0.0],
+        width: 0.4,
+        deposit: true,
+    };
+    let mut b = Vertex {
+        at: Point::new(3.0, 0.0),
+        material: [0.0, 1.0, 0.0, 0.0],
+        width: 0.2,
+        deposit: false,
+    };
+    let mut n = 0;
+    split(&a, &b, |m| {
+        assert!(!m.deposit);
+        n += 1;
+    });
+    assert_eq!(n, 1);
+    b.deposit = true;
+    b.material = a.material;
+    b.width = 0.41;
+    n = 0;
+    split(&a, &b, |m| {
+        assert_eq!(m.width, 0.4);
+        n += 1;
+    });
+    assert_eq!(n, 1);
 }

@@ -2,11 +2,12 @@
 //!
 //! Positions are absolute (`G90`), extrusion relative (`M83`). A travel move is
 //! `G0 X.. Y.. F..`; a depositing move is `G1 X.. Y.. E.. F..`, with `E` the length of
-//! 1.75 mm filament whose volume fills the road (`width * layer_height * length`, the width the
-//! mean of the move's two vertex widths: the slice's road width, or wider or narrower where the
-//! layer fills a wider or narrower gap). The
+//! 1.75 mm filament whose volume fills the road (`width * layer_height * length`). A printer
+//! lays one width per move, so a layer's moves are first split to constant width
+//! ([`hollowpath::toolpath::moves`]: where a road widens or narrows along a move, into pieces
+//! within 5 % of its width, each the narrowest width along it), and each piece is one `G1`. The
 //! composition is Marlin's mix (`M165 A.. B.. C.. D..`, fractions), written before a move
-//! whenever the composition of the vertex it goes to, rounded to 1e-3, differs from the last
+//! whenever the mix of the move (the composition where it ends), rounded to 1e-3, differs from the last
 //! one written. Each layer starts with `; layer K pattern NAME` and `G0 Z..` at
 //! `(K + 1) * layer_height`.
 
@@ -15,6 +16,7 @@ use std::fmt::Write;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::Point;
+use hollowpath::toolpath::moves::{path_moves, Move};
 use hollowpath::toolpath::{Pattern, Vertex};
 use hollowpath::{Material, Slice};
 
@@ -67,44 +69,50 @@ pub fn export(
     for (k, (pattern, path)) in layers.iter().enumerate() {
         let _ = writeln!(s, "; layer {k} pattern {}", pattern.name());
         let _ = writeln!(s, "G0 Z{:.4} F{travel:.0}", (k + 1) as f64 * h);
-        let mut prev: Option<Vertex> = None;
-        for v in path {
-            let q = quantise(&v.material);
-            if last_mix != Some(q) {
+        let Some(first) = path.first() else {
+            continue;
+        };
+        // Positions as written (4 decimals, in units of 1e-4 mm): lengths are what a reader
+        // of the file sees.
+        let q4 = |a: f32| (a as f64 * 1e4).round() as i64;
+        let mix = |s: &mut String, m: &Material, last_mix: &mut Option<[i64; CHANNELS]>| {
+            let q = quantise(m);
+            if *last_mix != Some(q) {
                 s.push_str("M165");
                 for (c, x) in q.iter().enumerate() {
                     let _ = write!(s, " {}{:.3}", MIX_LETTERS[c], *x as f64 / 1000.0);
                 }
                 s.push('\n');
-                last_mix = Some(q);
+                *last_mix = Some(q);
             }
-            let (x, y) = (v.at.x as f64, v.at.y as f64);
+        };
+        mix(&mut s, &first.material, &mut last_mix);
+        let _ = writeln!(
+            s,
+            "G0 X{:.4} Y{:.4} F{travel:.0}",
+            first.at.x as f64, first.at.y as f64
+        );
+        let mut at = (q4(first.at.x), q4(first.at.y));
+        path_moves(path, |m: Move| {
+            let to = (q4(m.to.x), q4(m.to.y));
             // A depositing move too short to show in 4 decimals moves nothing: leave it out.
-            let q4 = |a: f64| (a * 1e4).round() as i64;
-            if let (Some(p), true) = (prev, v.deposit) {
-                if q4(p.at.x as f64) == q4(x) && q4(p.at.y as f64) == q4(y) {
-                    continue;
-                }
+            if m.deposit && to == at {
+                return;
             }
-            match prev {
-                Some(pv) if v.deposit => {
-                    let p = pv.at;
-                    let w = 0.5 * (pv.width as f64 + v.width as f64);
-                    // The length a reader of the file sees: between the written coordinates.
-                    let r = |a: f64| q4(a) as f64 * 1e-4;
-                    let len = (r(x) - r(p.x as f64)).hypot(r(y) - r(p.y as f64));
-                    let _ = writeln!(
-                        s,
-                        "G1 X{x:.4} Y{y:.4} E{:.6} F{feed:.0}",
-                        filament_for(w, h, len)
-                    );
-                }
-                _ => {
-                    let _ = writeln!(s, "G0 X{x:.4} Y{y:.4} F{travel:.0}");
-                }
+            mix(&mut s, &m.material, &mut last_mix);
+            let (x, y) = (m.to.x as f64, m.to.y as f64);
+            if m.deposit {
+                let len = ((to.0 - at.0) as f64).hypot((to.1 - at.1) as f64) * 1e-4;
+                let _ = writeln!(
+                    s,
+                    "G1 X{x:.4} Y{y:.4} E{:.6} F{feed:.0}",
+                    filament_for(m.width as f64, h, len)
+                );
+            } else {
+                let _ = writeln!(s, "G0 X{x:.4} Y{y:.4} F{travel:.0}");
             }
-            prev = Some(*v);
-        }
+            at = to;
+        });
     }
     let _ = writeln!(s, "; end");
     s
@@ -261,4 +269,18 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
         }
     }
     Ok(layers)
+}
+
+/// The moves a printer makes for a layer read back by [`parse`]: each parsed vertex ends one
+/// move, at the width and mix the file gives it (the first vertex is reached by travel).
+pub fn printed_moves(path: &[Vertex]) -> Vec<Move> {
+    path.windows(2)
+        .map(|w| Move {
+            from: w[0].at,
+            to: w[1].at,
+            width: w[1].width,
+            material: w[1].material,
+            deposit: w[1].deposit,
+        })
+        .collect()
 }

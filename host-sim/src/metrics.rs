@@ -1,38 +1,43 @@
-//! Measuring a toolpath layer (`DESIGN.md`, "Measuring a toolpath").
+//! Measuring a toolpath layer as a printer lays it (`DESIGN.md`, "Measuring a toolpath").
 //!
-//! Every depositing move is a road of its vertices' widths: the capsule of radius `w / 2` around
-//! the move (the hull of the discs of half each end's width, where the layer widens or narrows
-//! a road). Roads are deposited onto a [`Raster`] of the slice (0.025 mm cells by default) and the
-//! layer is scored by what they cover:
+//! The deposition model: a printer executes each G-code move at one extrusion rate, so a move
+//! lays one width along its whole length, and its nozzle is round, so the move deposits every
+//! point within half that width of its segment (round caps and joins). A layer's path is first
+//! split into such constant-width moves ([`planned_moves`], the same split the G-code exporter
+//! writes: no move's width differs from the road's by more than 5 %), and the moves are
+//! deposited onto a [`Raster`] of the slice (0.025 mm cells by default). G-code read back
+//! ([`crate::gcode::printed_moves`]) is measured by the same [`Meter::measure_moves`], so the
+//! figures of a layer and of its exported G-code agree. The layer is scored by what the moves
+//! cover:
 //!
 //! - `starts`: extrusion starts (a travel move followed by a depositing move; the first vertex
 //!   of a layer is reached by travel, so a path that deposits at once starts there);
 //! - `travel_mm` / `extruded_mm`: lengths of the travel and depositing moves;
 //! - `coverage`: share of the printable region's cells covered at least once;
 //! - `overfill`: cells of the material region (inside the wall, outside the holes) covered two
-//!   or more times, over the printable region's cell count. Within one continuous road (a
-//!   maximal run of depositing moves), a cell that consecutive moves cover counts once, so the
-//!   road's own joints are not overfill; a road that leaves a cell and comes back over it (a
-//!   zigzag's legs laid too close, a spiral's rings overlapping) counts there again, as two
-//!   roads would ([`Options::revisit`]; [`Revisit::Once`] counts each cell once per road
-//!   instead, which makes a single-start layer's overfill zero by construction);
+//!   or more times, over the printable region's cell count. A road (a maximal run of depositing
+//!   moves) counts a cell once while it moves on along itself, and again only where it comes
+//!   back to the cell after moving on more than one road width along itself (a hairpin, the
+//!   next spiral turn, a crossing), as two roads would; another road counts again anywhere
+//!   ([`Options::revisit`]; [`Revisit::Once`] counts each cell once per road instead, which
+//!   makes a single-start layer's overfill zero by construction);
 //! - `spill`: cells inside a hollow feature or outside the wall covered at least once, over the
 //!   printable region's cell count;
 //! - `composition_error`: the mean, over deposited printable cells, of half the L1 distance
 //!   between the deposited composition and the blended field at the cell centre. A cell's
-//!   deposited composition is that of the nearest road: the composition blended linearly along
-//!   the move, at the point of the move closest to the cell. The field is sampled on every
-//!   [`Options::composition_stride`]-th cell in each direction (0.1 mm by default), because a
-//!   blended field is costly to evaluate; cells where it is `None` are skipped;
-//! - `feature_composition_error`: the largest half-L1 deviation between the material of a
-//!   deposited vertex lying on a feature's keep-out curve (half a road width from the feature,
-//!   within [`Options::keep_out_tol`]) and that feature's material.
+//!   deposited composition is the mix of the nearest move (one mix per move, as `M165` sets
+//!   it). The field is sampled on every [`Options::composition_stride`]-th cell in each
+//!   direction (0.1 mm by default), because a blended field is costly to evaluate; cells where
+//!   it is `None` are skipped;
+//! - `feature_composition_error`: the largest half-L1 deviation between the mix of a move
+//!   ending on a feature's keep-out curve (half a road width from the feature, within
+//!   [`Options::keep_out_tol`]) and that feature's material.
 
 use std::ops::Range;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::{polygon, Point};
-use hollowpath::toolpath::composition::blend;
+use hollowpath::toolpath::moves::{path_moves, Move};
 use hollowpath::toolpath::{Pattern, Vertex};
 use hollowpath::{Material, Slice};
 use serde::Serialize;
@@ -179,11 +184,23 @@ impl<'s> Meter<'s> {
         self.printable as f64 * (self.options.cell as f64).powi(2)
     }
 
-    /// Measures one layer's path; `field` gives the blended composition wanted at a point.
+    /// Measures one layer's path as a printer lays it: its moves split to constant width
+    /// ([`planned_moves`]); `field` gives the blended composition wanted at a point.
     pub fn measure(
         &mut self,
         pattern: Pattern,
         path: &[Vertex],
+        field: &dyn Fn(Point) -> Option<Material>,
+    ) -> LayerMetrics {
+        self.measure_moves(pattern, &planned_moves(path), field)
+    }
+
+    /// Measures one layer's moves, each deposited at its one width (the capsule of half the
+    /// width around it) and its one composition.
+    pub fn measure_moves(
+        &mut self,
+        pattern: Pattern,
+        moves: &[Move],
         field: &dyn Fn(Point) -> Option<Material>,
     ) -> LayerMetrics {
         let slice = self.slice;
@@ -196,10 +213,9 @@ impl<'s> Meter<'s> {
         let mut travel_mm = 0.0;
         let mut extruded_mm = 0.0;
         let mut depositing = false;
-        for w in path.windows(2) {
-            let (a, b) = (&w[0], &w[1]);
-            let len = length(a.at, b.at);
-            if !b.deposit {
+        for m in moves {
+            let len = length(m.from, m.to);
+            if !m.deposit {
                 travel_mm += len;
                 depositing = false;
                 continue;
@@ -211,16 +227,16 @@ impl<'s> Meter<'s> {
             }
             extruded_mm += len;
             let samples = &mut self.samples;
-            self.raster
-                .stamp_segment(a.at, b.at, 0.5 * a.width, 0.5 * b.width, |h: Hit| {
-                    if h.region != Region::Printable || h.i % stride != 0 || h.j % stride != 0 {
-                        return;
-                    }
-                    let s = &mut samples[(h.j / stride) * sx + h.i / stride];
-                    if h.d2 < s.0 {
-                        *s = (h.d2, blend(&a.material, &b.material, h.t));
-                    }
-                });
+            let r = 0.5 * m.width;
+            self.raster.stamp_segment(m.from, m.to, r, r, |h: Hit| {
+                if h.region != Region::Printable || h.i % stride != 0 || h.j % stride != 0 {
+                    return;
+                }
+                let s = &mut samples[(h.j / stride) * sx + h.i / stride];
+                if h.d2 < s.0 {
+                    *s = (h.d2, m.material);
+                }
+            });
         }
 
         let (mut covered, mut twice, mut spilt) = (0usize, 0usize, 0usize);
@@ -262,31 +278,40 @@ impl<'s> Meter<'s> {
             } else {
                 0.0
             },
-            feature_composition_error: feature_error(slice, path, self.options.keep_out_tol),
+            feature_composition_error: feature_error(slice, moves, self.options.keep_out_tol),
         }
     }
 }
 
-/// The largest half-L1 deviation between a deposited vertex on a feature's keep-out curve and
-/// that feature's material.
-fn feature_error(slice: &Slice, path: &[Vertex], tol: f32) -> f64 {
+/// The moves a printer lays for `path`: each move split into pieces of constant width
+/// ([`hollowpath::toolpath::moves::split`]), as the G-code exporter writes them.
+pub fn planned_moves(path: &[Vertex]) -> Vec<Move> {
+    let mut moves = Vec::with_capacity(path.len() + path.len() / 4);
+    path_moves(path, |m| moves.push(m));
+    moves
+}
+
+/// The largest half-L1 deviation between the mix laid where a move ends on a feature's keep-out
+/// curve (a depositing move, or the travel to a road's start) and that feature's material.
+fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
     let half = 0.5 * slice.settings().road_width;
     let mut worst = 0.0f64;
-    for (k, v) in path.iter().enumerate() {
-        let deposited = (k > 0 && v.deposit) || path.get(k + 1).is_some_and(|next| next.deposit);
+    for (k, m) in moves.iter().enumerate() {
+        let deposited = m.deposit || moves.get(k + 1).is_some_and(|next| next.deposit);
         if !deposited {
             continue;
         }
+        let p = m.to;
         for h in slice.holes() {
-            if polygon::bbox_distance(h.bbox(), v.at) > half + tol {
+            if polygon::bbox_distance(h.bbox(), p) > half + tol {
                 continue;
             }
-            if (h.signed_distance(v.at) - half).abs() < tol {
-                worst = worst.max(half_l1(&v.material, &h.material()));
+            if (h.signed_distance(p) - half).abs() < tol {
+                worst = worst.max(half_l1(&m.material, &h.material()));
             }
         }
-        if (slice.wall_clearance(v.at) - half).abs() < tol {
-            worst = worst.max(half_l1(&v.material, &slice.wall().material()));
+        if (slice.wall_clearance(p) - half).abs() < tol {
+            worst = worst.max(half_l1(&m.material, &slice.wall().material()));
         }
     }
     worst

@@ -74,12 +74,16 @@ pub struct Raster {
     pub count: Vec<u16>,
     /// Cells beyond the grid that some stroke covered (all outside the wall).
     outside: HashSet<(i64, i64)>,
-    /// Sequence number of the last segment that covered each cell (0: none).
-    last_segment: Vec<u32>,
-    /// Sequence number of the last segment stamped.
-    segment: u32,
-    /// Sequence number of the current stroke's first segment.
-    stroke_start: u32,
+    /// Where along the strokes (arc length, mm, counted on across strokes) each cell was last
+    /// covered (`-inf`: never).
+    last_s: Vec<f32>,
+    /// Arc length at the start of the next segment.
+    s: f32,
+    /// Arc length at the start of the current stroke.
+    stroke_start: f32,
+    /// How far a stroke must move on along itself before a cell it covers again counts again:
+    /// the slice's road width.
+    revisit_after: f32,
     revisit: Revisit,
 }
 
@@ -88,8 +92,9 @@ pub struct Raster {
 pub enum Revisit {
     /// Once per stroke, however the stroke folds over itself.
     Once,
-    /// Again whenever the stroke had left the cell: only where consecutive segments cover it
-    /// (a joint, a stroke passing along) does it count once.
+    /// Again where the stroke comes back to the cell after moving on more than one road width
+    /// along itself (a hairpin, the next spiral turn, a crossing): while it passes along, at a
+    /// joint or round a corner, the cell counts once (`../shared/DESIGN.md`).
     Again,
 }
 
@@ -154,9 +159,10 @@ impl Raster {
             region,
             count: vec![0; nx * ny],
             outside: HashSet::new(),
-            last_segment: vec![0; nx * ny],
-            segment: 0,
-            stroke_start: 1,
+            last_s: vec![f32::NEG_INFINITY; nx * ny],
+            s: 0.0,
+            stroke_start: 0.0,
+            revisit_after: slice.settings().road_width,
             revisit: Revisit::Once,
         }
     }
@@ -182,31 +188,28 @@ impl Raster {
     /// Forgets every stroke.
     pub fn clear(&mut self) {
         self.count.fill(0);
-        self.last_segment.fill(0);
         self.outside.clear();
-        self.segment = 0;
-        self.stroke_start = 1;
+        self.last_s.fill(f32::NEG_INFINITY);
+        self.s = 0.0;
+        self.stroke_start = 0.0;
     }
 
     /// Starts a new stroke, a continuous road: the segments stamped until the next call are
     /// its consecutive pieces, and `revisit` says how it counts where it comes back over
     /// itself.
     pub fn begin_stroke(&mut self, revisit: Revisit) {
-        // Skip a number, so the new stroke's first segment never follows the last one's.
-        if self.segment >= u32::MAX - 2 {
-            self.last_segment.fill(0);
-            self.segment = 0;
-        }
-        self.segment += 1;
-        self.stroke_start = self.segment + 1;
+        // A gap wider than the revisit length between strokes: another stroke always counts.
+        self.s += 2.0 * self.revisit_after + 1.0;
+        self.stroke_start = self.s;
         self.revisit = revisit;
     }
 
     /// Deposits the road around segment `ab`, the next piece of the current stroke: the hull
     /// of the discs of radius `ra` at `a` and `rb` at `b` (a capsule when they are equal; the
     /// radius tapers linearly along the move). Every grid cell whose centre is in it counts
-    /// once more, unless the stroke already covered it ([`Revisit::Once`]) or its previous
-    /// segment did ([`Revisit::Again`]). `visit` is called for every such grid cell (counted
+    /// once more, unless the stroke already covered it ([`Revisit::Once`]) or covered it
+    /// less than a road width back along itself ([`Revisit::Again`]; measured at the point of
+    /// the segment nearest the cell). `visit` is called for every such grid cell (counted
     /// or not; see [`Hit`]). Cells beyond the grid are recorded in the outside set.
     pub fn stamp_segment(
         &mut self,
@@ -224,12 +227,8 @@ impl Raster {
         if !a.is_finite() || !b.is_finite() {
             return;
         }
-        if self.segment >= u32::MAX - 1 {
-            self.begin_stroke(self.revisit);
-        }
-        self.segment += 1;
-        let seg = self.segment;
-        let (revisit, stroke_start) = (self.revisit, self.stroke_start);
+        let (revisit, stroke_start, s0) = (self.revisit, self.stroke_start, self.s);
+        let after = self.revisit_after;
         let cell = self.cell;
         let (ox, oy) = (self.origin.x, self.origin.y);
         let ab = b - a;
@@ -280,17 +279,16 @@ impl Raster {
                 if row_on_grid && i >= 0 && (i as usize) < self.nx {
                     let (iu, ju) = (i as usize, j as usize);
                     let k = ju * self.nx + iu;
-                    let last = self.last_segment[k];
-                    if last != seg {
-                        let again = match revisit {
-                            Revisit::Once => last < stroke_start,
-                            Revisit::Again => last + 1 < seg,
-                        };
-                        if again {
-                            self.count[k] = self.count[k].saturating_add(1);
-                        }
-                        self.last_segment[k] = seg;
+                    let s = s0 + t * len;
+                    let last = self.last_s[k];
+                    let again = match revisit {
+                        Revisit::Once => last < stroke_start,
+                        Revisit::Again => s - last > after,
+                    };
+                    if again {
+                        self.count[k] = self.count[k].saturating_add(1);
                     }
+                    self.last_s[k] = s;
                     visit(Hit {
                         k,
                         i: iu,
@@ -304,6 +302,7 @@ impl Raster {
                 }
             }
         }
+        self.s = s0 + len;
     }
 
     /// Deposits one stroke: every cell whose centre is within `radius` of the polyline counts

@@ -8,7 +8,8 @@ use std::f64::consts::PI;
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::{Pattern, Vertex};
 use hollowpath::Material;
-use host_sim::gcode::{export, filament_for, parse};
+use host_sim::gcode::{export, filament_for, parse, printed_moves};
+use host_sim::metrics::planned_moves;
 
 fn mix(t: f32) -> Material {
     [1.0 - t, t, 0.0, 0.0]
@@ -55,6 +56,8 @@ fn field(line: &str, letter: char) -> Option<f64> {
 
 #[test]
 fn exported_layers_read_back_the_same() {
+    // The file holds each layer's moves as a printer lays them (split to constant width and
+    // mix: the A-to-B blend becomes steps of at most 0.02), and reads back as those moves.
     let slice = two_holes();
     let layers = layers();
     let text = export(&slice, &layers, 10.0, 50.0);
@@ -62,23 +65,22 @@ fn exported_layers_read_back_the_same() {
     assert_eq!(back.len(), layers.len());
     for ((pattern, path), (name, got)) in layers.iter().zip(&back) {
         assert_eq!(name.as_deref(), Some(pattern.name()));
-        assert_eq!(got.len(), path.len(), "{}", pattern.name());
-        for (k, (want, got)) in path.iter().zip(got).enumerate() {
+        let want = planned_moves(path);
+        let got = printed_moves(got);
+        assert_eq!(got.len(), want.len(), "{}", pattern.name());
+        assert!(want.len() >= path.len() - 1);
+        for (k, (want, got)) in want.iter().zip(&got).enumerate() {
             assert!(
-                want.at.dist(got.at) < 1e-3,
-                "{} vertex {k}: {:?} read back as {:?}",
+                want.to.dist(got.to) < 1e-3 && want.from.dist(got.from) < 1e-3,
+                "{} move {k}: {want:?} read back as {got:?}",
                 pattern.name(),
-                want.at,
-                got.at
             );
-            assert_eq!(want.deposit, got.deposit, "{} vertex {k}", pattern.name());
+            assert_eq!(want.deposit, got.deposit, "{} move {k}", pattern.name());
             for c in 0..4 {
                 assert!(
                     (want.material[c] - got.material[c]).abs() < 1e-3,
-                    "{} vertex {k}: {:?} read back as {:?}",
+                    "{} move {k}: {want:?} read back as {got:?}",
                     pattern.name(),
-                    want.material,
-                    got.material
                 );
             }
         }
@@ -157,7 +159,7 @@ fn e_is_the_filament_that_fills_each_road() {
     }
     let deposit_moves: usize = layers
         .iter()
-        .map(|(_, p)| p.iter().skip(1).filter(|v| v.deposit).count())
+        .map(|(_, p)| planned_moves(p).iter().filter(|m| m.deposit).count())
         .sum();
     assert_eq!(roads, deposit_moves);
     let extruded: f64 = layers
@@ -173,12 +175,29 @@ fn e_is_the_filament_that_fills_each_road() {
 fn the_mix_is_written_only_when_it_changes() {
     let slice = two_holes();
     let text = export(&slice, &layers(), 10.0, 50.0);
-    let mixes: Vec<&str> = text.lines().filter(|l| l.starts_with("M165")).collect();
-    // A, the A-B blend, B (kept into the next layer), the three-way mix, the C-D mix.
-    assert_eq!(mixes.len(), 5, "{mixes:?}");
-    assert_eq!(mixes[0], "M165 A1.000 B0.000 C0.000 D0.000");
-    assert_eq!(mixes[1], "M165 A0.500 B0.500 C0.000 D0.000");
-    assert_eq!(mixes[3], "M165 A0.333 B0.333 C0.333 D0.000");
+    let mixes: Vec<[f64; 4]> = text
+        .lines()
+        .filter(|l| l.starts_with("M165"))
+        .map(|l| ['A', 'B', 'C', 'D'].map(|c| field(l, c).unwrap()))
+        .collect();
+    assert_eq!(mixes[0], [1.0, 0.0, 0.0, 0.0]);
+    assert!(mixes.contains(&[0.5, 0.5, 0.0, 0.0]));
+    assert!(mixes.contains(&[0.333, 0.333, 0.333, 0.0]));
+    // Never the same mix twice in a row; along the A-B road (the first 25 or so mixes) in
+    // steps of at most 0.02 (plus rounding), as a printer holds one mix per move.
+    let half_l1 =
+        |a: &[f64; 4], b: &[f64; 4]| 0.5 * a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f64>();
+    for w in mixes.windows(2) {
+        assert!(half_l1(&w[0], &w[1]) > 0.0, "{w:?}");
+    }
+    let blend_end = mixes
+        .iter()
+        .position(|m| *m == [0.0, 1.0, 0.0, 0.0])
+        .unwrap();
+    assert!(blend_end >= 50, "{blend_end}");
+    for w in mixes[..=blend_end].windows(2) {
+        assert!(half_l1(&w[0], &w[1]) <= 0.0205, "{w:?}");
+    }
     // Each mix comes right before the move into the vertex that carries it.
     let lines: Vec<&str> = text.lines().collect();
     for (k, l) in lines.iter().enumerate() {

@@ -129,39 +129,94 @@ fn gcode_of_real_layers_reads_back_as_the_same_path() {
     assert_eq!(back.len(), 2);
     for ((pattern, path), (name, parsed)) in layers.iter().zip(&back) {
         assert_eq!(name.as_deref(), Some(pattern.name()));
-        // G-code carries 4 decimals: moves that round to nothing vanish (a zero-length move has
-        // no E and reads back as travel). Compare the paths at that resolution.
-        let q = |x: f32| (x * 1e4).round() as i64;
-        let dedup = |p: &[hollowpath::toolpath::Vertex]| -> Vec<hollowpath::toolpath::Vertex> {
-            let mut out: Vec<hollowpath::toolpath::Vertex> = Vec::new();
-            for v in p {
-                match out.last() {
-                    Some(l) if q(l.at.x) == q(v.at.x) && q(l.at.y) == q(v.at.y) => {}
-                    _ => out.push(*v),
+        // The file holds the layer's moves as a printer lays them: each move split to
+        // constant width and mix. G-code carries 4 decimals: moves that round to nothing vanish.
+        let q = |p: hollowpath::geometry::Point| ((p.x * 1e4).round(), (p.y * 1e4).round());
+        let mut at = q(path[0].at);
+        let real: Vec<_> = host_sim::metrics::planned_moves(path)
+            .into_iter()
+            .filter(|m| {
+                let keep = !m.deposit || q(m.to) != at;
+                if keep {
+                    at = q(m.to);
                 }
-            }
-            out
-        };
-        let (real, parsed) = (dedup(path), dedup(parsed));
-        assert_eq!(real.len(), parsed.len(), "{pattern:?}");
-        // E gives each depositing move's mean width back (to its 6 decimals and the
-        // coordinates' 4 on the move's length: within 1 % on moves of 0.05 mm or more).
-        for k in 1..real.len() {
-            let (a, b, p) = (&real[k - 1], &real[k], &parsed[k]);
-            if b.deposit && a.at.dist(b.at) >= 0.05 {
-                let mean = 0.5 * (a.width + b.width);
-                assert!(
-                    (p.width - mean).abs() < 0.01 * mean,
-                    "{k}: {p:?} vs {a:?} {b:?}"
-                );
-            }
-        }
-        for (a, b) in real.iter().zip(&parsed) {
-            assert!(a.at.dist(b.at) < 2e-4, "{a:?} {b:?}");
+                keep
+            })
+            .collect();
+        // The first parsed vertex is where the layer starts (reached by travel).
+        let printed = gcode::printed_moves(parsed);
+        assert!(parsed[0].at.dist(path[0].at) < 2e-4);
+        assert_eq!(real.len(), printed.len(), "{pattern:?}");
+        for (a, b) in real.iter().zip(&printed) {
+            assert!(a.to.dist(b.to) < 2e-4, "{a:?} {b:?}");
             assert_eq!(a.deposit, b.deposit, "{a:?} {b:?}");
+            // E gives each depositing move's width back (to its 6 decimals and the
+            // coordinates' 4 on the move's length: within 1 % on moves of 0.05 mm or more).
+            if a.deposit && a.length() >= 0.05 {
+                assert!((a.width - b.width).abs() < 0.01 * a.width, "{a:?} {b:?}");
+            }
             for c in 0..4 {
                 assert!((a.material[c] - b.material[c]).abs() < 2e-3, "{a:?} {b:?}");
             }
+        }
+        // Roads that taper or blend are laid in more moves than they have vertices.
+        assert!(real.len() > path.len(), "{pattern:?}");
+        // No move's width differs from its road's by more than 5 %: the split pieces lie
+        // within the planned road, each within 5 % of its width at both ends.
+        for w in path.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            if a.at.dist(b.at) < 1e-3 {
+                continue;
+            }
+            hollowpath::toolpath::moves::split(a, b, |m| {
+                if !m.deposit {
+                    return;
+                }
+                let t = |p: hollowpath::geometry::Point| {
+                    let l = a.at.dist(b.at);
+                    if l > 0.0 {
+                        a.at.dist(p) / l
+                    } else {
+                        0.0
+                    }
+                };
+                for end in [m.from, m.to] {
+                    let road = a.width + (b.width - a.width) * t(end);
+                    assert!(
+                        m.width <= road + 1e-4 && m.width >= road * 0.95 - 1e-4,
+                        "{m:?} in {a:?} {b:?}"
+                    );
+                }
+            });
+        }
+    }
+}
+
+#[test]
+fn metrics_agree_with_the_exported_gcode_as_printed() {
+    // metrics.json measures the layer's moves as the G-code states them; depositing the
+    // exported file read back (one width per move from its E) gives the same figures.
+    for (name, text) in REFERENCE_SLICES {
+        let slice = slice_file::parse(text).unwrap().slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        let layers: Vec<_> = (0..2)
+            .map(|k| {
+                let l = layer(&slice, plan, Fill::Offset, k).unwrap();
+                (l.pattern, l.path)
+            })
+            .collect();
+        let back = gcode::parse(&gcode::export(&slice, &layers, 10.0, 40.0)).unwrap();
+        let field = |_p: hollowpath::geometry::Point| None;
+        let mut meter = host_sim::metrics::Meter::new(&slice, Default::default());
+        for ((pattern, path), (_, parsed)) in layers.iter().zip(&back) {
+            let planned = meter.measure(*pattern, path, &field);
+            let printed = meter.measure_moves(*pattern, &gcode::printed_moves(parsed), &field);
+            let what = format!("{name} {pattern:?}: {planned:?} vs {printed:?}");
+            assert!((planned.coverage - printed.coverage).abs() < 3e-3, "{what}");
+            assert!((planned.overfill - printed.overfill).abs() < 3e-3, "{what}");
+            assert!((planned.spill - printed.spill).abs() < 3e-3, "{what}");
+            assert_eq!(planned.starts, printed.starts, "{what}");
         }
     }
 }
