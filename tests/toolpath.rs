@@ -28,10 +28,15 @@ fn zigzag_is_one_continuous_road_through_both_cells() {
     // shared stretch.
     let w = slice.settings().road_width;
     assert_eq!(stats.dropped, 0);
+    // Where the band between MCLs is wider than the widest road the road meanders across it,
+    // so the joint is then covered by a stroke rather than passed by a vertex.
     for m in plan.mcls.iter() {
         assert!(
-            path.iter()
-                .any(|v| v.deposit && v.at.dist(m.joint) <= 0.25 * v.width.max(w) + 1e-4),
+            path.windows(2).any(|s| {
+                let (q, _) =
+                    hollowpath::geometry::polyline::closest_on_segment(s[0].at, s[1].at, m.joint);
+                s[1].deposit && q.dist(m.joint) <= 0.5 * s[1].width.max(w) + 1e-3
+            }),
             "MCL ending at {:?} missing",
             m.joint
         );
@@ -235,6 +240,7 @@ proptest::proptest! {
         proptest::prop_assert_eq!(pieces[0].from, a.at);
         proptest::prop_assert_eq!(pieces.last().unwrap().to, b.at);
         proptest::prop_assert_eq!(pieces.last().unwrap().material, b.material);
+        proptest::prop_assert_eq!(pieces[0].material, a.material);
         let n = pieces.len() as f32;
         for (k, m) in pieces.iter().enumerate() {
             proptest::prop_assert!(m.deposit);

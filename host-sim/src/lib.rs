@@ -9,6 +9,7 @@ pub mod layers;
 pub mod metrics;
 pub mod output;
 pub mod preview;
+pub mod random_slice;
 pub mod raster;
 pub mod render;
 pub mod slice_file;

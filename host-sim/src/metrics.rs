@@ -29,8 +29,8 @@
 //!   it). The field is sampled on every [`Options::composition_stride`]-th cell in each
 //!   direction (0.1 mm by default), because a blended field is costly to evaluate; cells where
 //!   it is `None` are skipped;
-//! - `feature_composition_error`: the largest half-L1 deviation between the mix of a move
-//!   ending on a feature's keep-out curve (half a road width from the feature, within
+//! - `feature_composition_error`: the largest half-L1 deviation between the mix of a
+//!   depositing move starting or ending on a feature's keep-out curve (half a road width from the feature, within
 //!   [`Options::keep_out_tol`]) and that feature's material.
 
 use std::ops::Range;
@@ -291,8 +291,8 @@ pub fn planned_moves(path: &[Vertex]) -> Vec<Move> {
     moves
 }
 
-/// The largest half-L1 deviation between the mix laid where a move ends on a feature's keep-out
-/// curve (a depositing move, or the travel to a road's start) and that feature's material.
+/// The largest half-L1 deviation between the mix laid where a depositing move starts or ends
+/// on a feature's keep-out curve and that feature's material.
 fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
     let half = 0.5 * slice.settings().road_width;
     let mut worst = 0.0f64;
@@ -301,17 +301,29 @@ fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
         if !deposited {
             continue;
         }
-        let p = m.to;
-        for h in slice.holes() {
-            if polygon::bbox_distance(h.bbox(), p) > half + tol {
-                continue;
+        let ends = if m.deposit {
+            &[m.from, m.to][..]
+        } else {
+            &[m.to][..]
+        };
+        let mix = if m.deposit {
+            m.material
+        } else {
+            // The mix laid at a road's start is its first move's.
+            moves[k + 1].material
+        };
+        for &p in ends {
+            for h in slice.holes() {
+                if polygon::bbox_distance(h.bbox(), p) > half + tol {
+                    continue;
+                }
+                if (h.signed_distance(p) - half).abs() < tol {
+                    worst = worst.max(half_l1(&mix, &h.material()));
+                }
             }
-            if (h.signed_distance(p) - half).abs() < tol {
-                worst = worst.max(half_l1(&m.material, &h.material()));
+            if (slice.wall_clearance(p) - half).abs() < tol {
+                worst = worst.max(half_l1(&mix, &slice.wall().material()));
             }
-        }
-        if (slice.wall_clearance(p) - half).abs() < tol {
-            worst = worst.max(half_l1(&m.material, &slice.wall().material()));
         }
     }
     worst

@@ -446,7 +446,15 @@ fn composition_error_compares_the_blend_along_the_road_with_the_field() {
     };
     let same = move |q: Point| Some(blend(&A, &B, along(q)));
     let m = measure_with(&slice, Pattern::Spiral, &path, &same, &every_cell);
-    assert!(m.composition_error < 1e-4, "{}", m.composition_error);
+    // As printed the mix steps along the road (one mix per move, each within MIX_TOLERANCE
+    // of the blend): off by half a step on average, and not exactly the blend.
+    let step = hollowpath::toolpath::moves::MIX_TOLERANCE as f64;
+    assert!(
+        m.composition_error < 0.5 * step + 1e-3,
+        "{}",
+        m.composition_error
+    );
+    assert!(m.composition_error > 0.25 * step, "{}", m.composition_error);
 
     // The field running the other way: error |1 - 2t| along the band (mean 1/2), 1 in the caps.
     let reversed = move |q: Point| Some(blend(&B, &A, along(q)));

@@ -49,7 +49,7 @@ pub struct Move {
     /// vertex it goes to; nothing is laid).
     pub width: f32,
     /// The composition laid along the whole move (the mix the printer holds while it moves):
-    /// the road's composition where the move ends.
+    /// the road's composition at one of the move's ends (see [`split`]).
     pub material: Material,
     /// Whether it deposits (valves open) or travels.
     pub deposit: bool,
@@ -81,7 +81,13 @@ pub fn pieces(a: &Vertex, b: &Vertex) -> u32 {
     for (x, y) in a.material.iter().zip(&b.material) {
         mix += libm::fabsf(x - y);
     }
-    let by_mix = 0.5 * mix / MIX_TOLERANCE;
+    // A move whose mix changes at all is laid in two pieces at least, so that each end's
+    // exact mix is laid at that end (a feature's material on its keep-out curve).
+    let by_mix = if mix > 0.0 {
+        (0.5 * mix / MIX_TOLERANCE).max(2.0)
+    } else {
+        0.0
+    };
     // Not a number (a degenerate width or mix) fails the comparison: one piece.
     let n = libm::ceilf(by_width.max(by_mix));
     if n >= MAX_PIECES as f32 {
@@ -95,7 +101,8 @@ pub fn pieces(a: &Vertex, b: &Vertex) -> u32 {
 
 /// Calls `out` with the constant-width moves that lay the move from `a` to `b` (`b.deposit`
 /// says whether it deposits; a travel move is one move): [`pieces`] equal pieces, each at the
-/// narrowest width along it and the mix where it ends.
+/// narrowest width along it and the mix of its end nearer the move's end it lies nearer (so
+/// the first piece starts with `a`'s exact mix and the last ends with `b`'s).
 pub fn split(a: &Vertex, b: &Vertex, mut out: impl FnMut(Move)) {
     if !b.deposit {
         out(Move {
@@ -122,11 +129,14 @@ pub fn split(a: &Vertex, b: &Vertex, mut out: impl FnMut(Move)) {
     let mut prev = at(0);
     for k in 1..=n {
         let next = at(k);
+        // The first half of the pieces holds the mix where each starts, the second half the
+        // mix where each ends: the move's ends get exactly their vertices' mixes.
+        let material = if 2 * k <= n { prev.2 } else { next.2 };
         out(Move {
             from: prev.0,
             to: next.0,
             width: prev.1.min(next.1),
-            material: next.2,
+            material,
             deposit: true,
         });
         prev = next;

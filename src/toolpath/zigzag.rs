@@ -400,32 +400,21 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
     out
 }
 
-/// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
-///
-/// The road covers its share of the gaps to the nearest neighbouring road on either side
-/// (distances `l` and `r`, from `near`'s MCLs): from half-way to the left one to half-way to
-/// the right one. So it is `(l + r) / 2` wide and its centre lies `(r - l) / 4` toward the
-/// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
-/// in, without gap or overlap. The width stays within the slice's
-/// [`min_width`](crate::Settings::min_width) .. [`max_width`](crate::Settings::max_width) and
-/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side (the
-/// shift is left out where it would come nearer a feature than half the narrowest road); the
-/// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
-/// where they are and are at most a road width wide, so nothing spills. `dir` is the MCL's
-/// direction at `p`.
-fn road_at(
+/// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
+/// the MCL and the distances to the nearest neighbouring MCL on the left and on the right (a
+/// side without a neighbour mirrors the other); the road owns half of each gap. `None` where
+/// `dir` is degenerate.
+fn band_at(
     slice: &Slice,
     plan: &Plan,
     p: Point,
     dir: Point,
-    end: bool,
     near: &[u16; 4],
-) -> (Point, f32) {
-    let settings = slice.settings();
-    let w = settings.road_width;
+) -> Option<(Point, f32, f32)> {
+    let w = slice.settings().road_width;
     let len = dir.norm();
     if len < 1e-6 {
-        return (p, w);
+        return None;
     }
     // Unit normal to the left of the MCL.
     let left_n = Point::new(-dir.y / len, dir.x / len);
@@ -449,12 +438,139 @@ fn road_at(
             right = right.min(best.0);
         }
     }
-    // A side without a neighbour mirrors the other.
     let (left, right) = match (left.is_finite(), right.is_finite()) {
         (true, true) => (left, right),
         (true, false) => (left, left),
         (false, true) => (right, right),
         (false, false) => (w, w),
+    };
+    Some((left_n, left, right))
+}
+
+/// Where the band an MCL's road owns ([`band_at`]) is wider than the widest road
+/// ([`max_width`](crate::Settings::max_width)), as it is where MCLs fan apart toward the wall,
+/// in large cells and around long channels, the road fills it with a meander: strokes across
+/// the band, from its right edge to its left edge and back, a road apart, advancing along the
+/// MCL. Emits the strokes along the MCL's move from `a` to `b` (arc lengths `sa`, `sb` of
+/// `len` from the `from` end, materials `ma`, `mb` at its ends), `right_first` the side the
+/// next stroke starts on, `in_meander` set to whether the last sample was a stroke.
+#[allow(clippy::too_many_arguments)]
+fn meander(
+    slice: &Slice,
+    plan: &Plan,
+    (a, b): (Point, Point),
+    (sa, sb, len): (f32, f32, f32),
+    (ma, mb): (&crate::Material, &crate::Material),
+    near: &[u16; 4],
+    (right_first, in_meander): (&mut bool, &mut bool),
+    sink: &mut impl PathSink,
+) -> Result<(), Error> {
+    let w = slice.settings().road_width;
+    let seg = a.dist(b);
+    if seg < w {
+        return Ok(());
+    }
+    let dir = b - a;
+    let n = libm::ceilf(seg / w);
+    let spacing = seg / n;
+    for k in 0..n as u32 {
+        let t = (k as f32 + 0.5) / n;
+        let material = along(ma, mb, sa + (sb - sa) * t, len);
+        *in_meander = stroke(
+            slice,
+            plan,
+            a.lerp(b, t),
+            dir,
+            spacing,
+            material,
+            near,
+            right_first,
+            sink,
+        )?;
+    }
+    Ok(())
+}
+
+/// One stroke of a [`meander`] across the band at `q` (the MCL's direction `dir`), `spacing`
+/// from the last, if the band there is wider than the widest road: from the side
+/// `right_first` names to the other, which the next stroke then starts from. Returns whether
+/// the band is that wide (whether `q` belongs to a meander).
+#[allow(clippy::too_many_arguments)]
+fn stroke(
+    slice: &Slice,
+    plan: &Plan,
+    q: Point,
+    dir: Point,
+    spacing: f32,
+    material: crate::Material,
+    near: &[u16; 4],
+    right_first: &mut bool,
+    sink: &mut impl PathSink,
+) -> Result<bool, Error> {
+    let settings = slice.settings();
+    let Some((left_n, left, right)) = band_at(slice, plan, q, dir, near) else {
+        return Ok(false);
+    };
+    if 0.5 * (left + right) <= settings.max_width {
+        return Ok(false);
+    }
+    let ws = spacing.max(settings.min_width);
+    // Each side as far out as the band reaches, pulled back toward the MCL where the
+    // stroke would leave the region (the band of an MCL whose neighbour lies beyond a
+    // feature, a pinch).
+    let side = |reach: f32, sign: f32| {
+        [1.0f32, 0.75, 0.5, 0.25, 0.0]
+            .iter()
+            .map(|f| q + left_n * (sign * f * reach))
+            .find(|&e| slice.fits(e, ws, 1e-4) && !slice.segment_crosses_feature(q, e))
+            .unwrap_or(q)
+    };
+    let sides = [
+        side((0.5 * right - 0.5 * ws).max(0.0), -1.0),
+        side((0.5 * left - 0.5 * ws).max(0.0), 1.0),
+    ];
+    let order = if *right_first { [0, 1] } else { [1, 0] };
+    for k in order {
+        emit_move(
+            slice,
+            sink,
+            Vertex {
+                at: sides[k],
+                material,
+                width: ws,
+                deposit: true,
+            },
+        )?;
+    }
+    *right_first = !*right_first;
+    Ok(true)
+}
+
+/// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
+///
+/// The road covers its share of the gaps to the nearest neighbouring road on either side
+/// (distances `l` and `r`, from `near`'s MCLs): from half-way to the left one to half-way to
+/// the right one. So it is `(l + r) / 2` wide and its centre lies `(r - l) / 4` toward the
+/// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
+/// in, without gap or overlap. The width stays within the slice's
+/// [`min_width`](crate::Settings::min_width) .. [`max_width`](crate::Settings::max_width) and
+/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side (the
+/// shift is left out where it would come nearer a feature than half the narrowest road); the
+/// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
+/// where they are and are at most a road width wide, so nothing spills. `dir` is the MCL's
+/// direction at `p`.
+fn road_at(
+    slice: &Slice,
+    plan: &Plan,
+    p: Point,
+    dir: Point,
+    end: bool,
+    near: &[u16; 4],
+) -> (Point, f32) {
+    let settings = slice.settings();
+    let w = settings.road_width;
+    let Some((left_n, left, right)) = band_at(slice, plan, p, dir, near) else {
+        return (p, w);
     };
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
     let cap = |q: Point| 2.0 * (slice.clearance(q) - EDGE_MARGIN);
@@ -516,6 +632,7 @@ fn emit_mcl(
                 (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
             })
     };
+    let (mut right_first, mut in_meander) = (true, false);
     for step in 0..n {
         let i = order(step);
         let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
@@ -535,6 +652,15 @@ fn emit_mcl(
             }
         }
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
+            // Inside a meander (the last sample before was a stroke, and the band here is
+            // wide too) the strokes fill the band: no road along the MCL's middle.
+            if in_meander && !is_end && step != 0 && step + 1 != n {
+                let band = band_at(slice, plan, p, dir, near);
+                if band.is_some_and(|(_, l, r)| 0.5 * (l + r) > slice.settings().max_width) {
+                    continue;
+                }
+            }
+            in_meander = false;
             let (mut at, mut width) = road_at(slice, plan, p, dir, is_end, near);
             // An end into a splice's inner arc lies on its line, a quarter road off the curve.
             let shifted = match step {
@@ -556,6 +682,19 @@ fn emit_mcl(
                 deposit: step != 0 || k != 0 || !travel_to_start,
             };
             emit_move(slice, sink, v)?;
+        }
+        if step + 1 < n {
+            let j = order(step + 1);
+            meander(
+                slice,
+                plan,
+                (pts[i], pts[j]),
+                (cum[i], cum[j], len),
+                (&ma, &mb),
+                near,
+                (&mut right_first, &mut in_meander),
+                sink,
+            )?;
         }
     }
     Ok(())
