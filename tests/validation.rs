@@ -105,7 +105,11 @@ fn a_bow_tie_is_self_intersecting_not_empty() {
     // Two lobes of equal area and opposite turn: no net area, but the fault is the crossing.
     let h = FeatureId::Hole(0);
     assert_eq!(
-        Feature::new(h, &pts(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0)]), A),
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0)]),
+            A
+        ),
         Err(Error::SelfIntersection {
             feature: h,
             edge_a: 0,
@@ -114,7 +118,11 @@ fn a_bow_tie_is_self_intersecting_not_empty() {
     );
     // Points on one line still enclose no area.
     assert_eq!(
-        Feature::new(h, &pts(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)]), A),
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)]),
+            A
+        ),
         Err(Error::ZeroArea { feature: h })
     );
 }
