@@ -71,6 +71,23 @@ impl SettingId {
     }
 }
 
+impl SettingId {
+    /// The values the setting allows, in words (as [`Settings`](crate::Settings) checks them).
+    pub const fn allowed(self) -> &'static str {
+        match self {
+            SettingId::RoadWidth => "0.01 to 10 mm",
+            SettingId::LayerHeight => "more than 0, at most 10 mm",
+            SettingId::WeightNormal | SettingId::WeightDistance => "0 to 16",
+            SettingId::Delta => "a finite number of mm, more than 0",
+            SettingId::MclSpacing => "0.25 to 4 road widths",
+            SettingId::RelaxSpacing => "more than 0, at most 4 road widths",
+            SettingId::MinWidth => "more than 0, at most the road width",
+            SettingId::MaxWidth => "the road width to 3 road widths",
+            SettingId::RelaxIterations => "a whole number from 0 to 64",
+        }
+    }
+}
+
 /// A fixed capacity of the core (see [`config`](crate::config)), named in [`Error::Capacity`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -285,7 +302,7 @@ impl fmt::Display for Error {
             }
             Error::OutOfRange { feature, vertex } => write!(
                 f,
-                "{feature}: vertex {vertex} lies beyond {} mm of the origin",
+                "{feature}: vertex {vertex} has a coordinate out of range (coordinates must lie from -{0} to {0} mm)",
                 crate::config::MAX_COORD_MM
             ),
             Error::ZeroArea { feature } => write!(f, "{feature}: the polygon encloses no area"),
@@ -313,7 +330,12 @@ impl fmt::Display for Error {
                 write!(f, "{feature}: material fractions sum to {sum}, not 1")
             }
             Error::InvalidSetting { setting, value } => {
-                write!(f, "setting {}: {value} is out of range", setting.key())
+                write!(
+                    f,
+                    "setting {}: {value} is out of range (allowed: {})",
+                    setting.key(),
+                    setting.allowed()
+                )
             }
             Error::NoHoles => f.write_str("the slice has no hollow feature to plan around"),
             Error::NoRoom { hole } => write!(

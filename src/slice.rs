@@ -65,6 +65,15 @@ impl Feature {
     /// no self-intersection, material fractions) and stores it counter-clockwise. Repeated
     /// consecutive points and a repeated closing point are dropped.
     pub fn new(id: FeatureId, points: &[Point], material: Material) -> Result<Feature, Error> {
+        // A repeated closing point (first == last) is dropped before any limit is checked, so
+        // a polygon of MAX_VERTICES vertices written closed still fits.
+        let mut points = points;
+        while let [first, .., last] = points {
+            if first != last {
+                break;
+            }
+            points = &points[..points.len() - 1];
+        }
         let mut pts: Vec<Point, MAX_VERTICES> = Vec::new();
         for (k, &p) in points.iter().enumerate() {
             let vertex = k.min(u16::MAX as usize) as u16;
@@ -102,8 +111,11 @@ impl Feature {
                 distinct: distinct as u16,
             });
         }
-        let area = polygon::double_area(&pts) * 0.5;
-        if area.is_nan() || libm::fabsf(area) <= 1e-6 {
+        // Self-intersection is checked before the net area, so that a bow-tie (whose lobes
+        // cancel to no net area) is named for what it is. Only points all on one line (no
+        // spread at all) are reported as enclosing no area first, as every such polygon folds
+        // back on itself.
+        if spread_area(&pts) <= 1e-6 {
             return Err(Error::ZeroArea { feature: id });
         }
         if let Some((a, b)) = polygon::self_intersection(&pts) {
@@ -112,6 +124,10 @@ impl Feature {
                 edge_a: a as u16,
                 edge_b: b as u16,
             });
+        }
+        let area = polygon::double_area(&pts) * 0.5;
+        if area.is_nan() || libm::fabsf(area) <= 1e-6 {
+            return Err(Error::ZeroArea { feature: id });
         }
         if area < 0.0 {
             pts.reverse();
@@ -192,6 +208,21 @@ impl Feature {
     /// Distance from `p` to the boundary, negative inside the polygon.
     pub fn signed_distance(&self, p: Point) -> f32 {
         self.nearest(p).distance
+    }
+}
+
+/// The area of the fan of triangles from the first vertex, each counted positive: zero (or NaN)
+/// exactly when all the points lie on one line.
+fn spread_area(pts: &[Point]) -> f32 {
+    let o = pts[0];
+    let twice: f32 = pts
+        .windows(2)
+        .map(|w| libm::fabsf((w[0] - o).cross(w[1] - o)))
+        .sum();
+    if twice.is_nan() {
+        0.0
+    } else {
+        0.5 * twice
     }
 }
 

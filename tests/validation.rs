@@ -101,6 +101,53 @@ fn polygon_errors() {
 }
 
 #[test]
+fn a_bow_tie_is_self_intersecting_not_empty() {
+    // Two lobes of equal area and opposite turn: no net area, but the fault is the crossing.
+    let h = FeatureId::Hole(0);
+    assert_eq!(
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0)]),
+            A
+        ),
+        Err(Error::SelfIntersection {
+            feature: h,
+            edge_a: 0,
+            edge_b: 2
+        })
+    );
+    // Points on one line still enclose no area.
+    assert_eq!(
+        Feature::new(
+            h,
+            &pts(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)]),
+            A
+        ),
+        Err(Error::ZeroArea { feature: h })
+    );
+}
+
+#[test]
+fn a_repeated_closing_point_does_not_count_against_the_vertex_limit() {
+    let n = hollowpath::config::MAX_VERTICES;
+    let mut ring = circle(0.0, 0.0, 5.0, n, 0.0);
+    let full = Feature::new(FeatureId::Wall, &ring, WALL).unwrap();
+    ring.push(ring[0]);
+    let closed = Feature::new(FeatureId::Wall, &ring, WALL).unwrap();
+    assert_eq!(closed.points(), full.points());
+    assert_eq!(closed.points().len(), n);
+    // One vertex more is still refused.
+    let more = circle(0.0, 0.0, 5.0, n + 1, 0.0);
+    assert_eq!(
+        Feature::new(FeatureId::Wall, &more, WALL),
+        Err(Error::Capacity {
+            limit: Limit::Vertices,
+            feature: Some(FeatureId::Wall)
+        })
+    );
+}
+
+#[test]
 fn material_errors() {
     let p = square((0.0, 0.0), 1.0);
     assert_eq!(
@@ -365,9 +412,33 @@ fn messages_name_feature_and_reason() {
                 setting: SettingId::Delta,
                 value: -1.0,
             },
-            "setting delta: -1 is out of range",
+            "setting delta: -1 is out of range (allowed: a finite number of mm, more than 0)",
+        ),
+        (
+            Error::InvalidSetting {
+                setting: SettingId::RelaxIterations,
+                value: 256.0,
+            },
+            "setting relax_iterations: 256 is out of range (allowed: a whole number from 0 to 64)",
+        ),
+        (
+            Error::OutOfRange {
+                feature: FeatureId::Hole(1),
+                vertex: 3,
+            },
+            "hole 1: vertex 3 has a coordinate out of range (coordinates must lie from -1000 to 1000 mm)",
         ),
     ];
+    assert_eq!(
+        (
+            hollowpath::config::MAX_RELAX_ITERATIONS,
+            hollowpath::config::MAX_COORD_MM,
+            hollowpath::config::MIN_ROAD_WIDTH_MM,
+            hollowpath::config::MAX_ROAD_WIDTH_MM,
+        ),
+        (64, 1000.0, 0.01, 10.0),
+        "update the messages above and SettingId::allowed"
+    );
     assert_eq!(
         hollowpath::config::MAX_MCLS,
         512,

@@ -7,6 +7,10 @@ use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::{raster::raster, Pattern, Vertex};
 use hollowpath::{Error, Plan, Slice};
 
+/// The most layers one run builds (`--layers`): every layer is held in memory and previewed
+/// before anything is written, so the count is bounded (1000 layers of 0.3 mm is 300 mm).
+pub const MAX_LAYERS: usize = 1000;
+
 /// What fills the layers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fill {

@@ -67,7 +67,7 @@ enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Number of layers (zigzag, spiral, zigzag, ...).
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, default_value_t = 2, value_parser = layer_count)]
         layers: usize,
         /// What fills the layers.
         #[arg(long, value_enum, default_value = "mcl")]
@@ -88,6 +88,106 @@ enum Command {
     },
 }
 
+/// `--layers`: 1 to [`layers::MAX_LAYERS`], checked before anything is read or built.
+fn layer_count(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .parse()
+        .map_err(|_| format!("the number of layers must be a whole number, not \"{s}\""))?;
+    if n == 0 {
+        return Err("at least 1 layer is needed".into());
+    }
+    if n > layers::MAX_LAYERS {
+        return Err(format!(
+            "at most {} layers can be planned in one run",
+            layers::MAX_LAYERS
+        ));
+    }
+    Ok(n)
+}
+
+/// `path` as it will be once written: its folder canonicalised (when it exists), its name kept.
+fn resolved(path: &Path) -> Option<PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(parent.canonicalize().ok()?.join(name))
+}
+
+/// Output files, each written to a temporary name beside its final one and renamed into place
+/// only by [`Staged::commit`], once everything succeeded; dropped uncommitted, it removes the
+/// temporaries, so a failed run leaves nothing that looks like a result.
+struct Staged {
+    /// The input slice file (canonical), never to be overwritten.
+    input: Option<PathBuf>,
+    /// (temporary, final) paths written so far.
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Staged {
+    fn new(input: Option<&Path>) -> Staged {
+        Staged {
+            input: input.and_then(|p| p.canonicalize().ok()),
+            files: Vec::new(),
+        }
+    }
+
+    /// Refuses `path` if it names the input slice file.
+    fn check(&self, path: &Path) -> Result<(), String> {
+        if self.input.is_some() && resolved(path) == self.input {
+            return Err(format!(
+                "refusing to write {}: it is the input slice file",
+                path.display()
+            ));
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<(), String> {
+        self.check(path)?;
+        let name = path
+            .file_name()
+            .ok_or_else(|| format!("cannot write {}: not a file name", path.display()))?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(".tmp-{}", std::process::id()));
+        let tmp = path.with_file_name(tmp_name);
+        std::fs::write(&tmp, bytes).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            format!("cannot write {}: {e}", path.display())
+        })?;
+        self.files.push((tmp, path.to_path_buf()));
+        Ok(())
+    }
+
+    fn commit(mut self) -> Result<(), String> {
+        let files = std::mem::take(&mut self.files);
+        let mut files = files.into_iter();
+        while let Some((tmp, path)) = files.next() {
+            if let Err(e) = std::fs::rename(&tmp, &path) {
+                let _ = std::fs::remove_file(&tmp);
+                for (t, _) in files {
+                    let _ = std::fs::remove_file(t);
+                }
+                return Err(format!("cannot write {}: {e}", path.display()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -105,13 +205,21 @@ fn main() -> ExitCode {
                     PatternArg::Mcl => spiral.into(),
                     PatternArg::Raster => Fill::Raster,
                 };
-                run(&f, &out, layers, fill, gcode.as_deref(), false)
+                run(
+                    &f,
+                    &out,
+                    layers,
+                    fill,
+                    gcode.as_deref(),
+                    false,
+                    Some(&slice),
+                )
             }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
                 let g = out.join("demo.gcode");
-                run(&f, &out, 2, Fill::Offset, Some(&g), true)
+                run(&f, &out, 2, Fill::Offset, Some(&g), true, None)
             }),
     };
     match result {
@@ -123,10 +231,6 @@ fn main() -> ExitCode {
     }
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
-}
-
 fn run(
     file: &slice_file::SliceFile,
     out: &Path,
@@ -134,7 +238,13 @@ fn run(
     fill: Fill,
     gcode_path: Option<&Path>,
     with_baseline: bool,
+    input: Option<&Path>,
 ) -> Result<(), String> {
+    let mut staged = Staged::new(input);
+    if let Some(g) = gcode_path {
+        staged.check(g)?;
+    }
+    let mut write = |path: &Path, bytes: &[u8]| staged.write(path, bytes);
     let slice = &file.slice;
     let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
     let plan = planner.last_plan();
@@ -240,6 +350,7 @@ fn run(
         let layers: Vec<_> = built.iter().map(|l| (l.pattern, l.path.clone())).collect();
         write(g, gcode::export(slice, &layers, 10.0, 40.0).as_bytes())?;
     }
+    staged.commit()?;
 
     println!(
         "{:<8} {:>6} {:>10} {:>11} {:>9} {:>9} {:>7} {:>12}",

@@ -2,12 +2,13 @@
 //! validated [`Slice`].
 
 use std::fmt;
+use std::io::Read;
 use std::path::Path;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::Point;
-use hollowpath::{Feature, FeatureId, Material, Settings, Slice};
-use serde::Deserialize;
+use hollowpath::{Feature, FeatureId, Material, SettingId, Settings, Slice};
+use serde_json::{Map, Value};
 
 /// Why a slice file could not be turned into a slice.
 #[derive(Debug)]
@@ -20,6 +21,8 @@ pub enum SliceFileError {
     Format(String),
     /// The slice itself is invalid (the core's verdict).
     Slice(hollowpath::Error),
+    /// The file is larger than the limit (path, limit in bytes).
+    TooLarge(String, u64),
 }
 
 impl fmt::Display for SliceFileError {
@@ -35,6 +38,13 @@ impl fmt::Display for SliceFileError {
             },
             SliceFileError::Format(s) => f.write_str(s),
             SliceFileError::Slice(e) => write!(f, "invalid slice: {e}"),
+            SliceFileError::TooLarge(path, limit) => {
+                if limit % (1 << 20) == 0 {
+                    write!(f, "slice file {path} is larger than {} MiB", limit >> 20)
+                } else {
+                    write!(f, "slice file {path} is larger than {limit} bytes")
+                }
+            }
         }
     }
 }
@@ -47,39 +57,6 @@ impl From<hollowpath::Error> for SliceFileError {
     }
 }
 
-#[derive(Deserialize)]
-struct FileFeature {
-    points: Vec<Vec<f64>>,
-    material: Vec<f64>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileSettings {
-    road_width: Option<f64>,
-    layer_height: Option<f64>,
-    w_n: Option<f64>,
-    w_d: Option<f64>,
-    delta: Option<f64>,
-    mcl_spacing: Option<f64>,
-    relax_iterations: Option<u8>,
-    relax_spacing: Option<f64>,
-    min_width: Option<f64>,
-    max_width: Option<f64>,
-}
-
-#[derive(Deserialize)]
-struct FileSlice {
-    #[serde(default)]
-    name: Option<String>,
-    #[serde(default)]
-    units: Option<String>,
-    outer: FileFeature,
-    holes: Vec<FileFeature>,
-    #[serde(default)]
-    settings: FileSettings,
-}
-
 /// A slice read from a file, with its name.
 #[derive(Clone, Debug)]
 pub struct SliceFile {
@@ -89,47 +66,138 @@ pub struct SliceFile {
     pub slice: Slice,
 }
 
-/// Reads and validates a slice file.
+/// The largest slice file read (64 MiB): far more than [`MAX_HOLES`] polygons of
+/// [`MAX_VERTICES`] points need, and small enough that an endless input (`/dev/zero`) is
+/// refused before it fills memory.
+///
+/// [`MAX_HOLES`]: hollowpath::config::MAX_HOLES
+/// [`MAX_VERTICES`]: hollowpath::config::MAX_VERTICES
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
+
+/// Reads and validates a slice file of at most [`MAX_FILE_BYTES`].
 pub fn load(path: &Path) -> Result<SliceFile, SliceFileError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SliceFileError::Io(path.display().to_string(), e))?;
+    load_with_limit(path, MAX_FILE_BYTES)
+}
+
+/// Reads and validates a slice file of at most `limit` bytes, reading no more than that.
+pub fn load_with_limit(path: &Path, limit: u64) -> Result<SliceFile, SliceFileError> {
+    let shown = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| SliceFileError::Io(shown.clone(), e))?;
+    let mut bytes = Vec::new();
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| SliceFileError::Io(shown.clone(), e))?;
+    if bytes.len() as u64 > limit {
+        return Err(SliceFileError::TooLarge(shown, limit));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        SliceFileError::Format(format!(
+            "slice file {shown} is not UTF-8 text (invalid byte at offset {})",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
     parse(&text)
 }
 
-/// Parses and validates slice JSON.
+const TOP_KEYS: &[&str] = &["name", "description", "units", "outer", "holes", "settings"];
+const FEATURE_KEYS: &[&str] = &["points", "material"];
+const SETTING_KEYS: &[&str] = &[
+    "road_width",
+    "layer_height",
+    "w_n",
+    "w_d",
+    "delta",
+    "mcl_spacing",
+    "relax_iterations",
+    "relax_spacing",
+    "min_width",
+    "max_width",
+];
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "a list",
+        Value::Object(_) => "an object",
+    }
+}
+
+fn format_err(s: String) -> SliceFileError {
+    SliceFileError::Format(s)
+}
+
+/// The object `v`, every key of it one of `allowed`.
+fn object<'a>(
+    v: &'a Value,
+    what: &str,
+    where_: &str,
+    allowed: &[&str],
+) -> Result<&'a Map<String, Value>, SliceFileError> {
+    let Value::Object(map) = v else {
+        return Err(format_err(format!(
+            "{what} must be a JSON object {{...}}, found {}",
+            kind(v)
+        )));
+    };
+    if let Some(k) = map.keys().find(|k| !allowed.contains(&k.as_str())) {
+        return Err(format_err(format!(
+            "unknown key \"{k}\" {where_}; expected one of {}",
+            allowed.join(", ")
+        )));
+    }
+    Ok(map)
+}
+
+fn required<'a>(
+    map: &'a Map<String, Value>,
+    key: &str,
+    where_: &str,
+) -> Result<&'a Value, SliceFileError> {
+    map.get(key)
+        .ok_or_else(|| format_err(format!("missing key \"{key}\" {where_}")))
+}
+
+/// Parses and validates slice JSON (a UTF-8 byte-order mark at the start is ignored).
 pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
-    let file: FileSlice = serde_json::from_str(text).map_err(SliceFileError::Json)?;
-    if let Some(u) = &file.units {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let doc: Value = serde_json::from_str(text).map_err(SliceFileError::Json)?;
+    let top = object(&doc, "a slice file", "at the top level", TOP_KEYS)?;
+    let mut strings = [None, None, None];
+    for (slot, key) in strings.iter_mut().zip(["name", "description", "units"]) {
+        match top.get(key) {
+            None => {}
+            Some(Value::String(s)) => *slot = Some(s.clone()),
+            Some(v) => {
+                return Err(format_err(format!(
+                    "\"{key}\" must be a string, found {}",
+                    kind(v)
+                )))
+            }
+        }
+    }
+    let [name, _description, units] = strings;
+    if let Some(u) = &units {
         if u != "mm" {
             return Err(SliceFileError::Format(format!(
                 "units \"{u}\" are not supported: slice files are in mm"
             )));
         }
     }
-    let s = &file.settings;
-    let mut settings = Settings::for_road_width(
-        s.road_width
-            .unwrap_or(hollowpath::config::defaults::ROAD_WIDTH as f64) as f32,
-    );
-    let set = |v: Option<f64>, dst: &mut f32| {
-        if let Some(v) = v {
-            *dst = v as f32;
-        }
+    let outer = required(top, "outer", "at the top level")?;
+    let holes = required(top, "holes", "at the top level")?;
+    let Value::Array(holes) = holes else {
+        return Err(format_err(format!(
+            "\"holes\" must be a list of features, found {}",
+            kind(holes)
+        )));
     };
-    set(s.layer_height, &mut settings.layer_height);
-    set(s.w_n, &mut settings.w_n);
-    set(s.w_d, &mut settings.w_d);
-    set(s.delta, &mut settings.delta);
-    set(s.mcl_spacing, &mut settings.mcl_spacing);
-    set(s.relax_spacing, &mut settings.relax_spacing);
-    set(s.min_width, &mut settings.min_width);
-    set(s.max_width, &mut settings.max_width);
-    if let Some(n) = s.relax_iterations {
-        settings.relax_iterations = n;
-    }
-    let wall = feature(FeatureId::Wall, &file.outer)?;
-    let mut holes = Vec::with_capacity(file.holes.len());
-    for (i, h) in file.holes.iter().enumerate() {
+    let settings = settings(top.get("settings"))?;
+    let wall = feature(FeatureId::Wall, outer)?;
+    let mut features = Vec::with_capacity(holes.len().min(hollowpath::config::MAX_HOLES));
+    for (i, h) in holes.iter().enumerate() {
         let id = FeatureId::Hole(u8::try_from(i).unwrap_or(u8::MAX));
         if i >= hollowpath::config::MAX_HOLES {
             return Err(hollowpath::Error::Capacity {
@@ -138,35 +206,134 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
             }
             .into());
         }
-        holes.push(feature(id, h)?);
+        features.push(feature(id, h)?);
     }
-    let slice = Slice::new(wall, &holes, settings)?;
+    let slice = Slice::new(wall, &features, settings)?;
     Ok(SliceFile {
-        name: file.name.unwrap_or_default(),
+        name: name.unwrap_or_default(),
         slice,
     })
 }
 
-fn feature(id: FeatureId, f: &FileFeature) -> Result<Feature, SliceFileError> {
-    if f.material.len() > CHANNELS {
+fn settings(v: Option<&Value>) -> Result<Settings, SliceFileError> {
+    let Some(v) = v else {
+        return Ok(Settings::default());
+    };
+    let map = object(v, "\"settings\"", "in settings", SETTING_KEYS)?;
+    let number = |id: SettingId| -> Result<Option<f64>, SliceFileError> {
+        match map.get(id.key()) {
+            None => Ok(None),
+            Some(Value::Number(n)) => Ok(n.as_f64()),
+            Some(v) => Err(format_err(format!(
+                "setting {}: expected a number ({}), found {}",
+                id.key(),
+                id.allowed(),
+                kind(v)
+            ))),
+        }
+    };
+    let out_of_range = |id: SettingId, x: f64| hollowpath::Error::InvalidSetting {
+        setting: id,
+        value: x as f32,
+    };
+    // A value beyond f32 is out of range, not infinite.
+    let float = |id: SettingId| -> Result<Option<f32>, SliceFileError> {
+        match number(id)? {
+            Some(x) if x.abs() > f32::MAX as f64 => Err(out_of_range(id, x).into()),
+            x => Ok(x.map(|x| x as f32)),
+        }
+    };
+    let road = float(SettingId::RoadWidth)?.unwrap_or(hollowpath::config::defaults::ROAD_WIDTH);
+    let mut s = Settings::for_road_width(road);
+    for (id, dst) in [
+        (SettingId::LayerHeight, &mut s.layer_height),
+        (SettingId::WeightNormal, &mut s.w_n),
+        (SettingId::WeightDistance, &mut s.w_d),
+        (SettingId::Delta, &mut s.delta),
+        (SettingId::MclSpacing, &mut s.mcl_spacing),
+        (SettingId::RelaxSpacing, &mut s.relax_spacing),
+        (SettingId::MinWidth, &mut s.min_width),
+        (SettingId::MaxWidth, &mut s.max_width),
+    ] {
+        if let Some(x) = float(id)? {
+            *dst = x;
+        }
+    }
+    if let Some(x) = number(SettingId::RelaxIterations)? {
+        let max = hollowpath::config::MAX_RELAX_ITERATIONS;
+        if x.fract() != 0.0 || !(0.0..=max as f64).contains(&x) {
+            return Err(out_of_range(SettingId::RelaxIterations, x).into());
+        }
+        s.relax_iterations = x as u8;
+    }
+    Ok(s)
+}
+
+fn feature(id: FeatureId, v: &Value) -> Result<Feature, SliceFileError> {
+    let map = object(v, &id.to_string(), &format!("in {id}"), FEATURE_KEYS)?;
+    let where_ = format!("in {id}");
+    let Value::Array(material_v) = required(map, "material", &where_)? else {
+        return Err(format_err(format!(
+            "{id}: material must be a list of fractions, found {}",
+            kind(&map["material"])
+        )));
+    };
+    if material_v.len() > CHANNELS {
         return Err(SliceFileError::Format(format!(
             "{id}: material has {} fractions, the printer has {CHANNELS} channels",
-            f.material.len()
+            material_v.len()
         )));
     }
     let mut material: Material = [0.0; CHANNELS];
-    for (m, &x) in material.iter_mut().zip(&f.material) {
+    for (c, (m, x)) in material.iter_mut().zip(material_v).enumerate() {
+        let Some(x) = x.as_f64() else {
+            return Err(format_err(format!(
+                "{id}: material fraction {c} is not a number (found {})",
+                kind(x)
+            )));
+        };
         *m = x as f32;
     }
-    let mut points: Vec<Point> = Vec::with_capacity(f.points.len());
-    for (k, p) in f.points.iter().enumerate() {
-        let [x, y] = p[..] else {
+    let Value::Array(points_v) = required(map, "points", &where_)? else {
+        return Err(format_err(format!(
+            "{id}: points must be a list of [x, y] pairs, found {}",
+            kind(&map["points"])
+        )));
+    };
+    let mut points: Vec<Point> = Vec::with_capacity(points_v.len().min(1 << 16));
+    let max = hollowpath::config::MAX_COORD_MM as f64;
+    for (k, p) in points_v.iter().enumerate() {
+        let Value::Array(p) = p else {
+            return Err(format_err(format!(
+                "{id}: point {k} must be an [x, y] pair, found {}",
+                kind(p)
+            )));
+        };
+        let [x, y] = &p[..] else {
             return Err(SliceFileError::Format(format!(
                 "{id}: point {k} has {} coordinates, expected [x, y]",
                 p.len()
             )));
         };
-        points.push(Point::new(x as f32, y as f32));
+        let mut xy = [0.0f32; 2];
+        for (dst, (axis, c)) in xy.iter_mut().zip([("x", x), ("y", y)]) {
+            let Some(c) = c.as_f64() else {
+                return Err(format_err(format!(
+                    "{id}: point {k}: {axis} is not a number (found {})",
+                    kind(c)
+                )));
+            };
+            // Checked before narrowing to f32, where 1e308 would turn infinite.
+            if c.abs() > max {
+                return Err(hollowpath::Error::OutOfRange {
+                    feature: id,
+                    vertex: k.min(u16::MAX as usize) as u16,
+                }
+                .into());
+            }
+            *dst = c as f32;
+        }
+        points.push(Point::new(xy[0], xy[1]));
     }
     Ok(Feature::new(id, &points, material)?)
 }

@@ -182,3 +182,78 @@ fn an_invalid_slice_exits_non_zero_with_one_line() {
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("cannot read"));
 }
+
+#[test]
+fn layer_counts_out_of_range_are_refused_before_any_work() {
+    let out = tmp("layer-count");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    for (n, says) in [
+        ("0", "at least 1 layer".to_string()),
+        (
+            "1000000",
+            format!("at most {} layers", host_sim::layers::MAX_LAYERS),
+        ),
+    ] {
+        let st = hollowpath()
+            .args(["plan", slice, "--layers", n, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(!st.status.success(), "--layers {n} accepted");
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert!(err.contains("--layers") && err.contains(&says), "{err}");
+        assert!(!out.exists(), "--layers {n} wrote output");
+    }
+}
+
+#[test]
+fn a_failed_write_leaves_no_results() {
+    let out = tmp("failed-write");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    let st = hollowpath()
+        .args(["plan", slice, "--out"])
+        .arg(&out)
+        .arg("--gcode")
+        .arg(out.join("missing-folder/print.gcode"))
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(
+        err.contains("cannot write") && err.contains("print.gcode"),
+        "{err}"
+    );
+    for name in ["metrics.json", "mcls.json", "mcls.svg", "layer-0.png"] {
+        assert!(!out.join(name).exists(), "{name} left after a failed run");
+    }
+    // Nor any temporary.
+    if out.exists() {
+        let left: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+        assert!(left.is_empty(), "{left:?}");
+    }
+}
+
+#[test]
+fn output_naming_the_input_is_refused() {
+    let dir = tmp("input-clash");
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("slice.json");
+    let text = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json")).unwrap();
+    std::fs::write(&input, &text).unwrap();
+    // The same file by another spelling of its path.
+    let other = dir.join(".").join("slice.json");
+    let st = hollowpath()
+        .arg("plan")
+        .arg(&input)
+        .arg("--out")
+        .arg(dir.join("o"))
+        .arg("--gcode")
+        .arg(&other)
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(err.contains("it is the input slice file"), "{err}");
+    assert_eq!(std::fs::read(&input).unwrap(), text);
+    assert!(!dir.join("o").join("metrics.json").exists());
+}

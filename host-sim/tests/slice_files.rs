@@ -67,9 +67,12 @@ fn malformed_and_truncated_json() {
     let e = err(r#"{"outer": {"points": [[0,0] [1,1]]}}"#);
     assert!(e.contains("malformed JSON"), "{e}");
     let e = err(r#"{"holes": []}"#);
-    assert!(e.contains("missing field `outer`"), "{e}");
-    let e = err(r#"{"outer": {"points": "square", "material": [1]}, "holes": []}"#);
-    assert!(e.contains("not a slice file"), "{e}");
+    assert_eq!(e, "missing key \"outer\" at the top level");
+    let e = err(r#"{"outer": {"points": "square", "material": {}}, "holes": []}"#);
+    assert_eq!(
+        e,
+        "the wall: material must be a list of fractions, found an object"
+    );
     let e = err(&slice("[[0,0,1],[1,0],[0,1]]", &[SMALL], ""));
     assert_eq!(e, "the wall: point 0 has 3 coordinates, expected [x, y]");
 }
@@ -77,7 +80,10 @@ fn malformed_and_truncated_json() {
 #[test]
 fn format_errors() {
     let e = err(&slice(SQUARE, &[SMALL], r#""road_widht": 0.4"#));
-    assert!(e.contains("unknown field `road_widht`"), "{e}");
+    assert!(
+        e.starts_with("unknown key \"road_widht\" in settings; expected one of road_width,"),
+        "{e}"
+    );
     let e = err(&slice(SQUARE, &[SMALL], "").replace("\"mm\"", "\"inch\""));
     assert!(e.contains("units \"inch\""), "{e}");
     let e = err(&slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1, 0, 0, 0]"));
@@ -96,7 +102,7 @@ fn invalid_slices_name_the_feature_and_reason() {
         ),
         (
             slice(SQUARE, &[SMALL, "[[3,3],[4,3],[4,4],[3,3.0000001e39]]"], ""),
-            "hole 1: vertex 3 has a coordinate that is not a finite number",
+            "hole 1: vertex 3 has a coordinate out of range (coordinates must lie from -1000 to 1000 mm)",
         ),
         (
             slice(SQUARE, &["[[0,0],[1,1],[2,2]]"], ""),
@@ -141,7 +147,7 @@ fn invalid_slices_name_the_feature_and_reason() {
         ),
         (
             slice("[[-10,-10],[10,-10],[10,1e6],[-10,10]]", &[SMALL], ""),
-            "the wall: vertex 2 lies beyond 1000 mm",
+            "the wall: vertex 2 has a coordinate out of range",
         ),
     ];
     for (text, expected) in cases {
@@ -202,5 +208,123 @@ fn errors_are_typed() {
     match parse(&slice(SQUARE, &[SMALL, SMALL], "")) {
         Err(SliceFileError::Slice(hollowpath::Error::HolesOverlap { a: 0, b: 1 })) => {}
         other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn unknown_keys_anywhere_are_named_with_where_and_what_is_expected() {
+    let good = slice(SQUARE, &[SMALL], "");
+    let e = err(&good.replace("\"settings\"", "\"setings\""));
+    assert_eq!(
+        e,
+        "unknown key \"setings\" at the top level; expected one of name, description, units, outer, holes, settings"
+    );
+    let e = err(&good.replace("\"holes\"", "\"hole\""));
+    assert!(
+        e.starts_with("unknown key \"hole\" at the top level"),
+        "{e}"
+    );
+    let e = err(&good.replace(
+        r#""material": [0, 1, 0, 0]"#,
+        r#""material": [0, 1, 0, 0], "colour": 3"#,
+    ));
+    assert_eq!(
+        e,
+        "unknown key \"colour\" in hole 0; expected one of points, material"
+    );
+    let e = err(&good.replace(r#""material": [1, 0, 0, 0]"#, r#""materail": [1, 0, 0, 0]"#));
+    assert!(e.starts_with("unknown key \"materail\" in the wall"), "{e}");
+    // The documented free-text keys are accepted.
+    let f = parse(&good.replace("\"name\"", "\"description\": \"d\", \"name\"")).unwrap();
+    assert_eq!(f.name, "t");
+}
+
+#[test]
+fn a_byte_order_mark_is_ignored() {
+    let text = format!("\u{feff}{}", slice(SQUARE, &[SMALL], ""));
+    assert_eq!(parse(&text).unwrap().slice.holes().len(), 1);
+}
+
+#[test]
+fn a_huge_coordinate_is_out_of_range_not_infinite() {
+    let e = err(&slice(SQUARE, &[SMALL, "[[3,3],[4,3],[1e308,4]]"], ""));
+    assert_eq!(
+        e,
+        "invalid slice: hole 1: vertex 2 has a coordinate out of range (coordinates must lie from -1000 to 1000 mm)"
+    );
+}
+
+#[test]
+fn a_bow_tie_hole_is_self_intersecting() {
+    let e = err(&slice(SQUARE, &["[[0,0],[2,2],[2,0],[0,2]]"], ""));
+    assert!(e.contains("hole 0: edges 0 and 2 intersect"), "{e}");
+}
+
+#[test]
+fn setting_value_errors_name_the_key_and_range() {
+    let e = err(&slice(SQUARE, &[SMALL], r#""relax_iterations": 256"#));
+    assert_eq!(
+        e,
+        "invalid slice: setting relax_iterations: 256 is out of range (allowed: a whole number from 0 to 64)"
+    );
+    let e = err(&slice(SQUARE, &[SMALL], r#""relax_iterations": 2.5"#));
+    assert!(
+        e.contains("setting relax_iterations: 2.5 is out of range"),
+        "{e}"
+    );
+    let e = err(&slice(SQUARE, &[SMALL], r#""road_width": "0.4""#));
+    assert_eq!(
+        e,
+        "setting road_width: expected a number (0.01 to 10 mm), found a string"
+    );
+    let e = err(&slice(SQUARE, &[SMALL], r#""delta": null"#));
+    assert!(e.starts_with("setting delta: expected a number"), "{e}");
+    let e = err(&slice(SQUARE, &[SMALL], r#""road_width": 0"#));
+    assert!(e.ends_with("(allowed: 0.01 to 10 mm)"), "{e}");
+    let e = err(&slice(SQUARE, &[SMALL], r#""w_n": 1e300"#));
+    assert!(
+        e.contains("setting w_n:") && e.contains("out of range"),
+        "{e}"
+    );
+}
+
+#[test]
+fn values_that_are_not_numbers_name_where_they_are() {
+    let e = err(&slice(SQUARE, &["[[-1,-1],[1,null],[1,1]]"], ""));
+    assert_eq!(e, "hole 0: point 1: y is not a number (found null)");
+    let e = err(&slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", r#"[0, "1", 0, 0]"#));
+    assert_eq!(
+        e,
+        "hole 0: material fraction 1 is not a number (found a string)"
+    );
+}
+
+#[test]
+fn a_closed_contour_of_the_vertex_limit_fits() {
+    let n = hollowpath::config::MAX_VERTICES;
+    let mut ring: Vec<String> = (0..n)
+        .map(|k| {
+            let a = k as f64 / n as f64 * std::f64::consts::TAU;
+            format!("[{},{}]", 9.0 * a.cos(), 9.0 * a.sin())
+        })
+        .collect();
+    ring.push(ring[0].clone());
+    let f = parse(&slice(&format!("[{}]", ring.join(",")), &[SMALL], "")).unwrap();
+    assert_eq!(f.slice.wall().points().len(), n);
+}
+
+#[test]
+fn an_oversized_file_is_refused_without_reading_it_all() {
+    let path = std::env::temp_dir().join(format!("hollowpath-big-{}.json", std::process::id()));
+    std::fs::write(&path, " ".repeat(1025)).unwrap();
+    let e = host_sim::slice_file::load_with_limit(&path, 1024).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        format!("slice file {} is larger than 1024 bytes", path.display())
+    );
+    let _ = std::fs::remove_file(&path);
+    if std::path::Path::new("/dev/zero").exists() {
+        let e = host_sim::slice_file::load(std::path::Path::new("/dev/zero")).unwrap_err();
+        assert_eq!(e.to_string(), "slice file /dev/zero is larger than 64 MiB");
     }
 }
