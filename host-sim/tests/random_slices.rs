@@ -1,0 +1,45 @@
+//! Both default layers on random slices (`host_sim::random_slice`), measured as printed: what
+//! must hold on slices nobody tuned for. The benchmark `cargo bench -p host-sim --bench random`
+//! runs the same on 200 slices and prints the distribution.
+
+use host_sim::layers::{layer, Fill};
+use host_sim::metrics::{Meter, Options};
+use host_sim::random_slice::{draw_many, Draw};
+
+#[test]
+fn default_layers_on_random_slices_as_printed() {
+    let slices = draw_many(1000, 10, &Draw::default());
+    assert_eq!(slices.len(), 10);
+    let mut spiral_bar = 0;
+    for r in &slices {
+        let slice = &r.slice;
+        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let plan = planner.last_plan();
+        let (lo, hi) = (slice.settings().min_width, slice.settings().max_width);
+        let mut meter = Meter::new(slice, Options::with_cell(slice.settings().road_width / 16.0));
+        for k in 0..2 {
+            let l = layer(slice, plan, Fill::Offset, k)
+                .unwrap_or_else(|e| panic!("{} layer {k}: {e}", r.description));
+            let m = meter.measure(l.pattern, &l.path, &|_| None);
+            let what = format!("{} {:?} ({}): {m:?}", r.description, l.pattern, l.note);
+            println!("{what}");
+            // Nothing in a hollow feature or outside the wall, each feature's own material
+            // on its keep-out curve, roads within the width limits.
+            assert!(m.spill < 5e-4, "{what}");
+            assert!(m.feature_composition_error < 1e-3, "{what}");
+            assert!(
+                l.path.iter().all(|v| v.width >= lo - 6.1e-3 && v.width <= hi),
+                "{what}"
+            );
+            if k == 1 {
+                // The offset spiral: one road, and the coverage bar.
+                assert_eq!(m.starts, 1, "{what}");
+                assert!(m.coverage >= 0.97, "{what}");
+                spiral_bar += usize::from(m.overfill <= 0.04);
+            }
+        }
+    }
+    // The overfill bar on most (the spiral's overfill is at most 0.045 on the 200 slices of
+    // the benchmark).
+    assert!(spiral_bar >= 8, "{spiral_bar} of 10");
+}
