@@ -74,6 +74,24 @@ pub const MAX_SITES: usize = 512;
 /// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
 pub const PATH_VERTICES: usize = 8_192;
 
+// The core stores indices in narrow integers; every `as u8` / `as u16` cast of an index is
+// bounded by one of these (a capacity too large for its index type does not compile):
+// hole indices (`FeatureId::Hole`, `Half::hole`, `Mcl::from`, `Bisector::a`) are `u8`, and a
+// field label holds a hole index below `field::KEEP_OUT` (0x40) with the wall's curve after them;
+const _: () = assert!(MAX_HOLES <= 64);
+// vertex and edge indices in errors are `u16`;
+const _: () = assert!(MAX_VERTICES <= u16::MAX as usize);
+// half and MCL indices are `u16`, with `u16::MAX` spare as "none";
+const _: () = assert!(MAX_HALVES < u16::MAX as usize);
+const _: () = assert!(MAX_MCLS < u16::MAX as usize);
+// the bisector a half ends on (`Half::on_bisector`) is a `u8`;
+const _: () = assert!(MAX_BISECTORS <= u8::MAX as usize + 1);
+// offset-spiral loop and site indices are `u16`, with `u16::MAX` spare as "none";
+const _: () = assert!(MAX_LOOPS < u16::MAX as usize);
+const _: () = assert!(MAX_SITES < u16::MAX as usize);
+// material channels are `u8`.
+const _: () = assert!(CHANNELS <= u8::MAX as usize);
+
 /// Default settings (see [`Settings`](crate::Settings)).
 pub mod defaults {
     /// Deposited road width, mm.

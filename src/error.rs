@@ -134,6 +134,14 @@ impl Limit {
         }
     }
 
+    /// The [`Error::Capacity`] of this limit, with no feature named.
+    pub(crate) const fn error(self) -> Error {
+        Error::Capacity {
+            limit: self,
+            feature: None,
+        }
+    }
+
     const fn what(self) -> &'static str {
         match self {
             Limit::Holes => "hollow features",

@@ -26,6 +26,9 @@ pub const OUTSIDE: u8 = 0xFF;
 /// Flag of a node in a hole's keep-out band (the low bits give the hole).
 pub const KEEP_OUT: u8 = 0x40;
 
+// `BoundaryNode::node` is a `u16` node index.
+const _: () = assert!(GRID_NODES <= u16::MAX as usize + 1);
+
 /// Arms of a node: +x, -x, +y, -y.
 const ARMS: [(isize, isize); 4] = [(1, 0), (-1, 0), (0, 1), (0, -1)];
 
@@ -121,9 +124,10 @@ impl Field {
                     (i as u8, a / (a + b).max(1e-6))
                 }
             };
-            // Capacity: the grid was sized to fit.
-            let _ = self.labels.push(label);
-            let _ = self.u.push(u0);
+            self.labels
+                .push(label)
+                .map_err(|_| Limit::GridNodes.error())?;
+            self.u.push(u0).map_err(|_| Limit::GridNodes.error())?;
         }
         for k in 0..self.grid.len() {
             let i = self.labels[k];
@@ -149,6 +153,7 @@ impl Field {
                 } else {
                     1.0
                 };
+                // In 13..=255 after the clamp: fits the `u8`.
                 entry.theta[a] = (libm::roundf(theta.clamp(0.05, 1.0) * 255.0) as u8).max(1);
                 if one {
                     entry.one |= 1 << a;

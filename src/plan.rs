@@ -212,7 +212,7 @@ impl Planner {
         let mut remap: Vec<u16, MAX_HALVES> = Vec::new();
         let mut next = 0u16;
         for h in plan.halves.iter() {
-            let _ = remap.push(next);
+            remap.push(next).map_err(|_| Limit::Halves.error())?;
             if h.alive {
                 next += 1;
             }

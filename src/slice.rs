@@ -34,6 +34,8 @@ pub struct Feature {
 
 /// Edges per chunk of a feature's distance index.
 const CHUNK: usize = 16;
+// `n <= MAX_VERTICES` points make at most `MAX_VERTICES / CHUNK` chunks.
+const _: () = assert!(MAX_VERTICES % CHUNK == 0);
 
 /// The nearest boundary point of a feature to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,7 +128,7 @@ impl Feature {
             let closing = pts[end % n];
             b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
             b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
-            // MAX_VERTICES / CHUNK chunks at most.
+            // Cannot fail: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
             let _ = chunks.push(b);
         }
         Ok(Feature {
@@ -414,8 +416,7 @@ impl Slice {
                     });
                 }
             }
-            // Capacity was checked above.
-            let _ = stored.push(h);
+            stored.push(h).map_err(|_| Limit::Holes.error())?;
         }
         let mut wall = wall;
         wall.id = FeatureId::Wall;

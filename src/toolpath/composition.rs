@@ -78,7 +78,7 @@ impl<'a> BlendedField<'a> {
     pub fn new(slice: &'a Slice, plan: &'a Plan) -> BlendedField<'a> {
         let mut boxes = heapless::Vec::new();
         for m in plan.mcls.iter() {
-            // One box per MCL; capacities match.
+            // Cannot fail: one box per MCL, and `plan.mcls` has the same capacity.
             let _ = boxes.push(polyline::bbox(&plan.points(m)));
         }
         BlendedField { slice, plan, boxes }

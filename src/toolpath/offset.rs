@@ -123,6 +123,8 @@ struct Frame {
 }
 
 const NONE: u16 = u16::MAX;
+// A loop's start and length in `points` are `u16`.
+const _: () = assert!(CONTOUR_POINTS <= u16::MAX as usize);
 
 /// The offset spiral's working memory (about 200 KiB: the distance grid and the loops), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
@@ -281,6 +283,8 @@ fn widened(
     }
     if ridge >= w {
         // The next turn crosses the ray a road width out: widen only if it was left out.
+        // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
+        // finest road) would only be clipped, never wrapped.
         let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16;
         if laid(p + n * w, level + 1) {
             return (p, w);
@@ -797,6 +801,7 @@ impl OffsetSpiral {
         stats: &mut OffsetStats,
     ) -> Result<(), Error> {
         self.queue.clear();
+        // Cannot fail: the queue was just emptied.
         let _ = self.queue.push(start as u16);
         let mut head = 0;
         while head < self.queue.len() {
@@ -1018,6 +1023,7 @@ impl OffsetSpiral {
                 self.vertex(slice, &field, self.at(root, s0), false),
             )?;
             self.stack.clear();
+            // Cannot fail: the stack was just emptied.
             let _ = self.stack.push(Frame {
                 lp: root as u16,
                 pos: s0,

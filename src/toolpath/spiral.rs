@@ -88,6 +88,7 @@ fn spokes(
         } else {
             (len - half_width).max(0.0)
         };
+        // Cannot fail: one spoke per half in `order`, of the same capacity.
         let _ = out.push(Spoke {
             half: h,
             mcl: k as u16,
@@ -159,7 +160,7 @@ pub fn spiral(
             _ => libm::roundf(mean / w).max(1.0),
         } as usize;
         if pos == 0 {
-            stats.turns = turns as u16;
+            stats.turns = turns.min(u16::MAX as usize) as u16;
         }
         let total = turns * n + extra;
         for v in 0..=total {
@@ -257,6 +258,7 @@ fn cell_order(
         for c in 0..holes {
             if !used[c] && link[last][c].is_some() {
                 used[c] = true;
+                // Cannot fail: each of the `holes <= MAX_HOLES` cells is used once.
                 let _ = path.push(c as u8);
                 if extend(path, used, holes, link) {
                     return true;
@@ -271,6 +273,7 @@ fn cell_order(
         let mut path: Vec<u8, MAX_HOLES> = Vec::new();
         let mut used = [false; MAX_HOLES];
         used[first] = true;
+        // Cannot fail: the path was just created.
         let _ = path.push(first as u8);
         if extend(&mut path, &mut used, holes, link) {
             return path;
