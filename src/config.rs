@@ -1,19 +1,50 @@
 //! Capacities and defaults, in one place.
 //!
 //! Every buffer of the core is fixed-capacity; its size is one of the constants below. Exceeding
-//! one is an [`Error::Capacity`](crate::Error::Capacity) naming the [`Limit`](crate::Limit), never
-//! a panic and never a silently truncated plan.
+//! one is an [`Error`](crate::Error) naming the limit ([`Error::Capacity`](crate::Error::Capacity)
+//! with its [`Limit`](crate::Limit), or [`Error::SliceTooLarge`](crate::Error::SliceTooLarge)
+//! for the grids), never a panic and never a silently truncated plan.
 //!
-//! The sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM; the
-//! firmware's `memory.x` clips QEMU's memory to that): the whole [`Planner`](crate::Planner)
-//! is about 290 KiB and is meant to live in a `static`; one layer's path buffer
-//! ([`PATH_VERTICES`]) another 224 KiB. `tests/capacity.rs` in host-sim prints
-//! how full each buffer gets on the reference slices.
+//! ## Two sets of capacities, one plan
+//!
+//! The default sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM;
+//! the firmware's `memory.x` clips QEMU's memory to that): the whole
+//! [`Planner`](crate::Planner) is about 290 KiB and is meant to live in a `static`; one
+//! layer's path buffer ([`PATH_VERTICES`]) another 224 KiB. They hold 8 hollow features of up
+//! to 256 vertices in about 75 x 75 mm at 0.4 mm roads.
+//!
+//! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
+//! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
+//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 6 MiB and a
+//! [`Slice`](crate::Slice) about 2.3 MiB: keep them on the heap, and build and run them on a
+//! thread with a large stack (host-sim's `run_on_large_stack`), as the layers' working sets
+//! are on the stack too.
+//!
+//! The capacities only decide whether a slice is accepted: everything that shapes a plan (the
+//! grid spacings, [`GRID_SPACING_NODES`], the per-polyline point budgets [`HALF_POINTS`] and
+//! [`BISECTOR_POINTS`] that the simplification tolerances are searched against) is the same in
+//! both sets, so a slice both builds accept gets bit-identical plans (`host-sim/tests/mcu.rs`).
+//!
+//! RAM per unit of capacity (bytes; the `large` figures in brackets):
+//!
+//! | unit | where | bytes |
+//! |------|-------|-------|
+//! | hollow feature | `Slice` (vertices, chunk boxes) | 8 per vertex + 1 per vertex (2.3 KiB [36 KiB]) |
+//! | feature's keep-out curve | zigzag layer, on the stack | 12 per vertex (3 KiB [48 KiB]) |
+//! | field grid node (cell) | `Planner` (label, `u`) | 5 (80 KiB [320 KiB]) |
+//! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
+//! | offset-spiral grid node | `OffsetSpiral` (distance, mark) | 5 (80 KiB [320 KiB]) |
+//! | MCL half | `Planner` | 232 (145 KiB [3.6 MiB]) |
+//!
+//! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices.
 
-/// Most hollow features in one slice.
-pub const MAX_HOLES: usize = 8;
-/// Most vertices of one polygon (the wall or a hollow feature).
-pub const MAX_VERTICES: usize = 256;
+/// Whether the real-size capacities of the cargo feature `large` are compiled in.
+pub const LARGE: bool = cfg!(feature = "large");
+
+/// Most hollow features in one slice (8; 64 with `large`).
+pub const MAX_HOLES: usize = if LARGE { 64 } else { 8 };
+/// Most vertices of one polygon, the wall or a hollow feature (256; 4096 with `large`).
+pub const MAX_VERTICES: usize = if LARGE { 4_096 } else { 256 };
 /// Material channels (reservoirs / valves) per composition.
 pub const CHANNELS: usize = 4;
 /// Largest absolute coordinate accepted, in millimetres.
@@ -25,14 +56,21 @@ pub const MIN_ROAD_WIDTH_MM: f32 = 0.01;
 /// Most relaxation sweeps a slice may ask for.
 pub const MAX_RELAX_ITERATIONS: u8 = 64;
 
-/// Nodes of the grid that carries the cell labels and the harmonic field.
-pub const GRID_NODES: usize = 16_384;
-/// Grid nodes next to a boundary (the Shortley-Weller table).
-pub const BOUNDARY_NODES: usize = 3_072;
-/// Preferred grid spacing as a fraction of the road width (coarsened to fit [`GRID_NODES`]).
+/// Nodes of the grid that carries the cell labels and the harmonic field (16 384; 65 536
+/// with `large`). Also the capacity of the offset spiral's distance grid.
+pub const GRID_NODES: usize = if LARGE { 65_536 } else { 16_384 };
+/// Grid nodes next to a boundary, the Shortley-Weller table (3072; 32 768 with `large`).
+pub const BOUNDARY_NODES: usize = if LARGE { 32_768 } else { 3_072 };
+/// Preferred grid spacing as a fraction of the road width.
 pub const GRID_SPACING_PER_ROAD: f32 = 0.6;
-/// The coarsest grid accepted, as a multiple of the road width: a slice that would need a
-/// coarser grid to fit [`GRID_NODES`] is refused (about 75 x 75 mm at 0.4 mm roads).
+/// The spacing rule's node budget, the same in every build (not a capacity): from the
+/// preferred spacing, a grid is coarsened in steps of 3 % while it has more nodes than this,
+/// up to [`MAX_GRID_SPACING_PER_ROAD`]. A grid that then has more nodes than its capacity
+/// ([`GRID_NODES`]) is refused.
+pub const GRID_SPACING_NODES: usize = 16_384;
+/// The coarsest grid spacing, as a multiple of the road width: coarser would not resolve the
+/// cells (at this spacing [`GRID_NODES`] cover about 75 x 75 mm at 0.4 mm roads; 150 x 150
+/// mm with `large`).
 pub const MAX_GRID_SPACING_PER_ROAD: f32 = 1.5;
 /// Most Gauss-Seidel/SOR sweeps of the field solve.
 pub const FIELD_MAX_SWEEPS: u32 = 4_000;
@@ -42,34 +80,38 @@ pub const FIELD_TOLERANCE: f32 = 2.0e-6;
 pub const FIELD_OMEGA: f32 = 1.9;
 
 /// Most bisector pieces (one per adjacent pair of cells, more where the wall splits one).
-pub const MAX_BISECTORS: usize = 20;
-/// Most points of one stored bisector polyline.
+pub const MAX_BISECTORS: usize = if LARGE { 256 } else { 20 };
+/// Most points of one stored bisector polyline, the same in every build: a traced bisector is
+/// simplified with the finest tolerance (from 2 µm, doubling) that fits it, so this shapes
+/// the plan.
 pub const BISECTOR_POINTS: usize = 128;
 /// Most branch points.
-pub const MAX_BRANCH_POINTS: usize = 48;
+pub const MAX_BRANCH_POINTS: usize = if LARGE { 512 } else { 48 };
 /// Grid edges where two cells meet, used as seeds for tracing bisectors.
-pub const BISECTOR_SEEDS: usize = 2_048;
+pub const BISECTOR_SEEDS: usize = if LARGE { 16_384 } else { 2_048 };
 
 /// Most MCL halves (feature to cell boundary) traced in one slice.
-pub const MAX_HALVES: usize = 640;
-/// Most points of one traced half after simplification.
+pub const MAX_HALVES: usize = if LARGE { 16_384 } else { 640 };
+/// Most points of one traced half after simplification, the same in every build: a half is
+/// simplified with the finest tolerance (from 0.5 % of a road, doubling) that fits it, so this
+/// shapes the plan.
 pub const HALF_POINTS: usize = 24;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.
-pub const MAX_MCLS: usize = 512;
+pub const MAX_MCLS: usize = if LARGE { 8_192 } else { 512 };
 /// Raw streamline points before simplification.
-pub const TRACE_POINTS: usize = 1_024;
+pub const TRACE_POINTS: usize = if LARGE { 4_096 } else { 1_024 };
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 
 /// Points of all the offset spiral's traced loops together
 /// ([`OffsetSpiral`](crate::toolpath::offset::OffsetSpiral)).
-pub const CONTOUR_POINTS: usize = 8_192;
+pub const CONTOUR_POINTS: usize = if LARGE { 65_535 } else { 8_192 };
 /// Most loops of one offset-spiral layer.
-pub const MAX_LOOPS: usize = 256;
+pub const MAX_LOOPS: usize = if LARGE { 4_096 } else { 256 };
 /// Most pairs of loops running side by side (and joins) in one offset-spiral layer.
-pub const MAX_SITES: usize = 512;
+pub const MAX_SITES: usize = if LARGE { 8_192 } else { 512 };
 
 /// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
 pub const PATH_VERTICES: usize = 8_192;

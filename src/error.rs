@@ -272,6 +272,34 @@ pub enum Error {
         /// The hollow feature.
         hole: u8,
     },
+    /// A polygon has more vertices than [`MAX_VERTICES`](crate::config::MAX_VERTICES).
+    TooManyVertices {
+        /// The polygon.
+        feature: FeatureId,
+        /// How many distinct consecutive vertices it was given.
+        vertices: u32,
+    },
+    /// The slice has more hollow features than [`MAX_HOLES`](crate::config::MAX_HOLES).
+    TooManyHoles {
+        /// How many it was given.
+        holes: u32,
+    },
+    /// The slice is too large for a grid at its road width: at the coarsest spacing the road
+    /// allows ([`MAX_GRID_SPACING_PER_ROAD`](crate::config::MAX_GRID_SPACING_PER_ROAD)), the
+    /// grid would need more nodes than its capacity
+    /// ([`GRID_NODES`](crate::config::GRID_NODES)).
+    SliceTooLarge {
+        /// Width of the wall's bounding box, mm.
+        width: f32,
+        /// Height of the wall's bounding box, mm.
+        height: f32,
+        /// The road width, mm.
+        road_width: f32,
+        /// Side of the largest square the grid holds at this road width, mm.
+        holds: f32,
+        /// The offset spiral's distance grid (else the planner's field grid).
+        spiral: bool,
+    },
     /// A fixed capacity was exceeded.
     Capacity {
         /// Which capacity.
@@ -327,6 +355,31 @@ impl fmt::Display for Error {
             Error::NoRoom { hole } => write!(
                 f,
                 "hole {hole}: no material changing line fits between it and its cell boundary (too little room for a road)"
+            ),
+            Error::TooManyVertices { feature, vertices } => write!(
+                f,
+                "{feature} has {vertices} vertices; at most {}: simplify the polygon or split the feature",
+                crate::config::MAX_VERTICES
+            ),
+            Error::TooManyHoles { holes } => write!(
+                f,
+                "the slice has {holes} hollow features; at most {}: split the slice",
+                crate::config::MAX_HOLES
+            ),
+            Error::SliceTooLarge {
+                width,
+                height,
+                road_width,
+                holds,
+                spiral,
+            } => write!(
+                f,
+                "the slice is {width:.1} x {height:.1} mm; at road_width {road_width} the {} holds {holds:.1} x {holds:.1} mm: use a coarser road or split the slice",
+                if spiral {
+                    "offset spiral's grid"
+                } else {
+                    "field grid"
+                }
             ),
             Error::Capacity { limit, feature } => {
                 if let Some(feature) = feature {

@@ -15,7 +15,7 @@
 use heapless::Vec;
 
 use crate::config::{
-    BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES,
+    BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES, GRID_SPACING_NODES,
     GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
 };
 use crate::geometry::{Grid, Point};
@@ -97,17 +97,25 @@ impl Field {
     pub fn label_nodes(&mut self, slice: &Slice) -> Result<(), Error> {
         let w = slice.settings().road_width;
         let (lo, hi) = slice.wall().bbox();
-        self.grid = Grid::covering(lo, hi, w * GRID_SPACING_PER_ROAD, GRID_NODES);
-        if self.grid.h > MAX_GRID_SPACING_PER_ROAD * w {
-            // Too coarse to resolve the cells at this road width.
-            return Err(Error::Capacity {
-                limit: Limit::GridNodes,
-                feature: None,
-            });
-        }
         self.labels.clear();
         self.u.clear();
         self.boundary.clear();
+        // The spacing depends on the slice and the road only; the capacity only decides
+        // whether the grid fits.
+        let h = Grid::spacing(
+            lo,
+            hi,
+            w * GRID_SPACING_PER_ROAD,
+            GRID_SPACING_NODES,
+            MAX_GRID_SPACING_PER_ROAD * w,
+        );
+        self.grid = Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
+            width: hi.x - lo.x,
+            height: hi.y - lo.y,
+            road_width: w,
+            holds: Grid::square_side(h, GRID_NODES),
+            spiral: false,
+        })?;
         let half = 0.5 * w;
         for k in 0..self.grid.len() {
             let p = self.grid.node(k);

@@ -85,10 +85,12 @@ impl Feature {
             if pts.last() == Some(&p) {
                 continue;
             }
-            pts.push(p).map_err(|_| Error::Capacity {
-                limit: Limit::Vertices,
-                feature: Some(id),
-            })?;
+            if pts.push(p).is_err() {
+                return Err(Error::TooManyVertices {
+                    feature: id,
+                    vertices: distinct_consecutive(points),
+                });
+            }
         }
         while pts.len() > 1 && pts.first() == pts.last() {
             pts.pop();
@@ -160,12 +162,13 @@ impl Feature {
     /// so far are skipped (nearest chunk first).
     pub fn nearest(&self, p: Point) -> Nearest {
         let n = self.points.len();
-        let mut bounds = [(0.0f32, 0usize); MAX_VERTICES / CHUNK];
+        // Filled as needed: a large MAX_VERTICES costs no clearing per query.
+        let mut bounds: Vec<(f32, usize), { MAX_VERTICES / CHUNK }> = Vec::new();
         for (c, b) in self.chunks.iter().enumerate() {
             let d = polygon::bbox_distance(*b, p);
-            bounds[c] = (d * d, c);
+            // Cannot fail: one per chunk, of the same capacity.
+            let _ = bounds.push((d * d, c));
         }
-        let bounds = &mut bounds[..self.chunks.len()];
         bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best = (self.points[0], f32::INFINITY, 0);
         for &(lower, c) in bounds.iter() {
@@ -195,6 +198,16 @@ impl Feature {
     pub fn signed_distance(&self, p: Point) -> f32 {
         self.nearest(p).distance
     }
+}
+
+/// Points of `points` that differ from the one before them (the closing repeat not counted).
+fn distinct_consecutive(points: &[Point]) -> u32 {
+    let n = points.len();
+    let kept = (0..n)
+        .filter(|&k| k == 0 || points[k] != points[k - 1])
+        .count();
+    let closing = n > 1 && points[n - 1] == points[0];
+    (kept - usize::from(closing)).min(u32::MAX as usize) as u32
 }
 
 fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
@@ -373,9 +386,8 @@ impl Slice {
             return Err(Error::NoHoles);
         }
         if holes.len() > MAX_HOLES {
-            return Err(Error::Capacity {
-                limit: Limit::Holes,
-                feature: None,
+            return Err(Error::TooManyHoles {
+                holes: holes.len().min(u32::MAX as usize) as u32,
             });
         }
         let mut stored: Vec<Feature, MAX_HOLES> = Vec::new();

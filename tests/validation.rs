@@ -93,9 +93,9 @@ fn polygon_errors() {
     let many = circle(0.0, 0.0, 5.0, 300, 0.0);
     assert_eq!(
         Feature::new(FeatureId::Wall, &many, WALL),
-        Err(Error::Capacity {
-            limit: Limit::Vertices,
-            feature: Some(FeatureId::Wall)
+        Err(Error::TooManyVertices {
+            feature: FeatureId::Wall,
+            vertices: 300
         })
     );
 }
@@ -202,13 +202,7 @@ fn slice_level_errors() {
     let holes: Vec<Feature> = (0..9)
         .map(|k| hole(k as u8, &square((-8.0 + 2.0 * k as f32, 0.0), 0.5)).unwrap())
         .collect();
-    assert_eq!(
-        slice_err(&holes),
-        Error::Capacity {
-            limit: Limit::Holes,
-            feature: None
-        }
-    );
+    assert_eq!(slice_err(&holes), Error::TooManyHoles { holes: 9 });
     let h = hole(0, &square((0.0, 0.0), 2.0)).unwrap();
     for (settings, id, value) in [
         (
@@ -397,12 +391,15 @@ fn a_failed_plan_leaves_no_partial_plan() {
         Settings::default(),
     )
     .unwrap();
+    let e = planner.plan(&big).unwrap_err();
+    assert!(
+        matches!(e, Error::SliceTooLarge { spiral: false, .. }),
+        "{e:?}"
+    );
+    // In the user's terms: the slice's size, the road and what the grid holds.
     assert_eq!(
-        planner.plan(&big).unwrap_err(),
-        Error::Capacity {
-            limit: Limit::GridNodes,
-            feature: None
-        }
+        e.to_string(),
+        "the slice is 400.0 x 400.0 mm; at road_width 0.4 the field grid holds 72.8 x 72.8 mm: use a coarser road or split the slice"
     );
     assert!(planner.last_plan().mcls.is_empty() && planner.last_plan().halves.is_empty());
 }

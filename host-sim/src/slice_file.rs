@@ -132,9 +132,8 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
     for (i, h) in file.holes.iter().enumerate() {
         let id = FeatureId::Hole(u8::try_from(i).unwrap_or(u8::MAX));
         if i >= hollowpath::config::MAX_HOLES {
-            return Err(hollowpath::Error::Capacity {
-                limit: hollowpath::Limit::Holes,
-                feature: Some(id),
+            return Err(hollowpath::Error::TooManyHoles {
+                holes: u32::try_from(file.holes.len()).unwrap_or(u32::MAX),
             }
             .into());
         }
