@@ -15,8 +15,8 @@
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
-//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 6 MiB and a
-//! [`Slice`](crate::Slice) about 2.3 MiB: keep them on the heap, and build and run them on a
+//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 4.9 MiB, the
+//! offset spiral's working memory 1.4 MiB and a [`Slice`](crate::Slice) 2.3 MiB: keep them on the heap, and build and run them on a
 //! thread with a large stack (host-sim's `run_on_large_stack`), as the layers' working sets
 //! are on the stack too.
 //!
@@ -34,9 +34,10 @@
 //! | field grid node (cell) | `Planner` (label, `u`) | 5 (80 KiB [320 KiB]) |
 //! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
 //! | offset-spiral grid node | `OffsetSpiral` (distance, mark) | 5 (80 KiB [320 KiB]) |
-//! | MCL half | `Planner` | 232 (145 KiB [3.6 MiB]) |
+//! | MCL half | `Planner` | 240 (150 KiB [3.75 MiB]) |
 //!
-//! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices.
+//! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices,
+//! and the sizes of the working sets.
 
 /// Whether the real-size capacities of the cargo feature `large` are compiled in.
 pub const LARGE: bool = cfg!(feature = "large");

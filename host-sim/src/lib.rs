@@ -36,7 +36,7 @@ pub fn run_on_large_stack<T: Send>(f: impl FnOnce() -> T + Send) -> T {
     })
 }
 
-/// Plans `slice` with a fresh planner on the heap (the planner is ~290 KiB, ~6 MiB with the
+/// Plans `slice` with a fresh planner on the heap (the planner is ~290 KiB, ~4.9 MiB with the
 /// `large` capacities: call it on a [`run_on_large_stack`] thread).
 pub fn plan(slice: &hollowpath::Slice) -> Result<Box<hollowpath::Planner>, hollowpath::Error> {
     let mut planner = Box::new(hollowpath::Planner::new());
