@@ -48,6 +48,11 @@ pub const MAX_HOLES: usize = if LARGE { 64 } else { 8 };
 pub const MAX_VERTICES: usize = if LARGE { 4_096 } else { 256 };
 /// Material channels (reservoirs / valves) per composition.
 pub const CHANNELS: usize = 4;
+/// Contours with more distinct vertices than this are simplified within the slice's
+/// `simplify_tolerance` ([`Slice::from_contours`](crate::Slice::from_contours)); contours with
+/// fewer are kept exactly as given. A rule constant, the same in every build (not a capacity),
+/// so both builds store the same polygons.
+pub const SIMPLIFY_ABOVE_VERTICES: usize = 256;
 /// Largest absolute coordinate accepted, in millimetres.
 pub const MAX_COORD_MM: f32 = 1000.0;
 /// Largest road width accepted, in millimetres.
@@ -141,6 +146,8 @@ pub mod defaults {
     pub const ROAD_WIDTH: f32 = 0.4;
     /// Layer height, mm.
     pub const LAYER_HEIGHT: f32 = 0.3;
+    /// Contour simplification tolerance, mm (at most a tenth of the road width).
+    pub const SIMPLIFY_TOLERANCE: f32 = 0.005;
     /// Weight `w_n` of the normal term of the matching objective (2.1).
     pub const W_N: f32 = 1.0;
     /// Weight `w_d` of the distance term of the matching objective (2.1).

@@ -51,6 +51,8 @@ pub enum SettingId {
     MaxWidth,
     /// `relax_iterations`
     RelaxIterations,
+    /// `simplify_tolerance`
+    SimplifyTolerance,
 }
 
 impl SettingId {
@@ -67,6 +69,7 @@ impl SettingId {
             SettingId::MinWidth => "min_width",
             SettingId::MaxWidth => "max_width",
             SettingId::RelaxIterations => "relax_iterations",
+            SettingId::SimplifyTolerance => "simplify_tolerance",
         }
     }
 }
@@ -278,6 +281,8 @@ pub enum Error {
         feature: FeatureId,
         /// How many distinct consecutive vertices it was given.
         vertices: u32,
+        /// Whether it had been simplified (and still has too many).
+        simplified: bool,
     },
     /// The slice has more hollow features than [`MAX_HOLES`](crate::config::MAX_HOLES).
     TooManyHoles {
@@ -356,9 +361,22 @@ impl fmt::Display for Error {
                 f,
                 "hole {hole}: no material changing line fits between it and its cell boundary (too little room for a road)"
             ),
-            Error::TooManyVertices { feature, vertices } => write!(
+            Error::TooManyVertices {
+                feature,
+                vertices,
+                simplified: false,
+            } => write!(
                 f,
                 "{feature} has {vertices} vertices; at most {}: simplify the polygon or split the feature",
+                crate::config::MAX_VERTICES
+            ),
+            Error::TooManyVertices {
+                feature,
+                vertices,
+                simplified: true,
+            } => write!(
+                f,
+                "{feature} has more than {} vertices after simplification ({vertices} given): raise simplify_tolerance or split the feature",
                 crate::config::MAX_VERTICES
             ),
             Error::TooManyHoles { holes } => write!(

@@ -95,7 +95,8 @@ fn polygon_errors() {
         Feature::new(FeatureId::Wall, &many, WALL),
         Err(Error::TooManyVertices {
             feature: FeatureId::Wall,
-            vertices: 300
+            vertices: 300,
+            simplified: false
         })
     );
 }
@@ -402,4 +403,122 @@ fn a_failed_plan_leaves_no_partial_plan() {
         "the slice is 400.0 x 400.0 mm; at road_width 0.4 the field grid holds 72.8 x 72.8 mm: use a coarser road or split the slice"
     );
     assert!(planner.last_plan().mcls.is_empty() && planner.last_plan().halves.is_empty());
+}
+
+fn ring(cx: f32, r: f32, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|k| {
+            let a = k as f32 / n as f32 * std::f32::consts::TAU;
+            Point::new(cx + r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+/// Largest distance from a vertex of `input` to the polygon `simple`.
+fn deviation(input: &[Point], simple: &[Point]) -> f32 {
+    let n = simple.len();
+    input
+        .iter()
+        .map(|&p| {
+            (0..n)
+                .map(|k| {
+                    let (q, _) = hollowpath::geometry::polyline::closest_on_segment(
+                        simple[k],
+                        simple[(k + 1) % n],
+                        p,
+                    );
+                    q.dist(p)
+                })
+                .fold(f32::INFINITY, f32::min)
+        })
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn a_4096_vertex_circle_simplifies_within_tolerance_and_fits_the_mcu() {
+    let circle = ring(0.0, 5.0, 4096);
+    let f = Feature::simplified(FeatureId::Hole(0), &circle, A, 0.005).unwrap();
+    let n = f.points().len();
+    assert!((20..=hollowpath::config::MAX_VERTICES).contains(&n), "{n}");
+    assert!(deviation(&circle, f.points()) <= 0.005 + 1e-5);
+    // Feature::new would refuse it on the MCU build (256 vertices).
+    if !hollowpath::config::LARGE {
+        assert!(matches!(
+            Feature::new(FeatureId::Hole(0), &circle, A),
+            Err(Error::TooManyVertices {
+                vertices: 4096,
+                simplified: false,
+                ..
+            })
+        ));
+    }
+}
+
+#[test]
+fn a_4096_vertex_star_keeps_its_corners() {
+    // 32 points, every edge split into 64 collinear pieces.
+    let corners: Vec<Point> = (0..64)
+        .map(|k| {
+            let a = k as f32 / 64.0 * std::f32::consts::TAU;
+            let r = if k % 2 == 0 { 10.0 } else { 4.0 };
+            Point::new(r * a.cos(), r * a.sin())
+        })
+        .collect();
+    let star: Vec<Point> = (0..4096)
+        .map(|k| {
+            let (c, t) = (k / 64, (k % 64) as f32 / 64.0);
+            corners[c].lerp(corners[(c + 1) % 64], t)
+        })
+        .collect();
+    let f = Feature::simplified(FeatureId::Wall, &star, WALL, 0.005).unwrap();
+    assert_eq!(f.points().len(), 64);
+    for c in &corners {
+        assert!(f.points().iter().any(|p| p.dist(*c) < 1e-4), "{c:?} lost");
+    }
+    assert!(deviation(&star, f.points()) <= 0.005 + 1e-5);
+}
+
+#[test]
+fn simplification_keeps_more_vertices_where_features_would_meet() {
+    // The wall's chords cut up to 5 µm inward at 0.005 mm tolerance; the hole is 2 µm away (the wall keeps 128 vertices, 3 µm in).
+    let wall = ring(0.0, 10.0, 4096);
+    // Its vertices face the middles of the coarse wall's chords.
+    let (sin, cos) = (std::f32::consts::PI / 128.0).sin_cos();
+    let hole: Vec<Point> = ring(0.0, 9.998, 4096)
+        .iter()
+        .map(|p| Point::new(p.x * cos - p.y * sin, p.x * sin + p.y * cos))
+        .collect();
+    let coarse = Feature::simplified(FeatureId::Wall, &wall, WALL, 0.005).unwrap();
+    let s = Slice::from_contours(&wall, WALL, &[(&hole, A)], Settings::default()).unwrap();
+    assert!(s.wall().points().len() > coarse.points().len());
+    assert!(s.wall().points().len() <= hollowpath::config::MAX_VERTICES);
+    assert!(s.holes()[0]
+        .points()
+        .iter()
+        .all(|&p| s.wall().signed_distance(p) < 0.0));
+}
+
+#[test]
+fn simplify_tolerance_is_validated() {
+    let s = Settings {
+        simplify_tolerance: 0.05,
+        ..Settings::default()
+    };
+    assert_eq!(
+        Slice::from_contours(&ring(0.0, 10.0, 64), WALL, &[(&ring(0.0, 3.0, 32), A)], s)
+            .unwrap_err(),
+        Error::InvalidSetting {
+            setting: hollowpath::SettingId::SimplifyTolerance,
+            value: 0.05
+        }
+    );
+    // Contours of at most 256 vertices are kept exactly.
+    let small = ring(0.0, 3.0, 200);
+    let f = Feature::simplified(FeatureId::Hole(0), &small, A, 0.005).unwrap();
+    assert_eq!(
+        f.points(),
+        Feature::new(FeatureId::Hole(0), &small, A)
+            .unwrap()
+            .points()
+    );
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::Point;
-use hollowpath::{Feature, FeatureId, Material, Settings, Slice};
+use hollowpath::{FeatureId, Material, Settings, Slice};
 use serde::Deserialize;
 
 /// Why a slice file could not be turned into a slice.
@@ -66,6 +66,7 @@ struct FileSettings {
     relax_spacing: Option<f64>,
     min_width: Option<f64>,
     max_width: Option<f64>,
+    simplify_tolerance: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -124,10 +125,11 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
     set(s.relax_spacing, &mut settings.relax_spacing);
     set(s.min_width, &mut settings.min_width);
     set(s.max_width, &mut settings.max_width);
+    set(s.simplify_tolerance, &mut settings.simplify_tolerance);
     if let Some(n) = s.relax_iterations {
         settings.relax_iterations = n;
     }
-    let wall = feature(FeatureId::Wall, &file.outer)?;
+    let wall = contour(FeatureId::Wall, &file.outer)?;
     let mut holes = Vec::with_capacity(file.holes.len());
     for (i, h) in file.holes.iter().enumerate() {
         let id = FeatureId::Hole(u8::try_from(i).unwrap_or(u8::MAX));
@@ -137,16 +139,19 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
             }
             .into());
         }
-        holes.push(feature(id, h)?);
+        holes.push(contour(id, h)?);
     }
-    let slice = Slice::new(wall, &holes, settings)?;
+    let refs: Vec<(&[Point], Material)> = holes.iter().map(|(p, m)| (&p[..], *m)).collect();
+    // Contours of more than SIMPLIFY_ABOVE_VERTICES vertices are simplified in the core.
+    let slice = Slice::from_contours(&wall.0, wall.1, &refs, settings)?;
     Ok(SliceFile {
         name: file.name.unwrap_or_default(),
         slice,
     })
 }
 
-fn feature(id: FeatureId, f: &FileFeature) -> Result<Feature, SliceFileError> {
+/// The points and material of one contour, checked for shape (the core checks the rest).
+fn contour(id: FeatureId, f: &FileFeature) -> Result<(Vec<Point>, Material), SliceFileError> {
     if f.material.len() > CHANNELS {
         return Err(SliceFileError::Format(format!(
             "{id}: material has {} fractions, the printer has {CHANNELS} channels",
@@ -167,5 +172,5 @@ fn feature(id: FeatureId, f: &FileFeature) -> Result<Feature, SliceFileError> {
         };
         points.push(Point::new(x as f32, y as f32));
     }
-    Ok(Feature::new(id, &points, material)?)
+    Ok((points, material))
 }

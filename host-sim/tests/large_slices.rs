@@ -45,8 +45,8 @@ fn sixty_four_holes() -> Slice {
 
 #[test]
 fn capacities_are_the_large_ones() {
-    assert!(config::LARGE);
-    assert!(config::MAX_HOLES >= 64 && config::MAX_VERTICES >= 4096);
+    const { assert!(config::LARGE) };
+    const { assert!(config::MAX_HOLES >= 64 && config::MAX_VERTICES >= 4096) };
 }
 
 #[test]
@@ -101,7 +101,8 @@ fn too_many_vertices_and_holes_are_refused_in_the_users_terms() {
         e,
         Error::TooManyVertices {
             feature: FeatureId::Hole(3),
-            vertices: 5000
+            vertices: 5000,
+            simplified: false
         }
     );
     assert_eq!(
@@ -147,5 +148,36 @@ fn a_slice_too_large_for_the_field_grid_says_so_in_mm() {
         let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
         let planner = host_sim::plan(&slice).unwrap();
         assert!(planner.last_plan().stats.grid_nodes as usize > config::GRID_SPACING_NODES);
+    });
+}
+
+#[test]
+fn slice_files_simplify_big_contours_by_their_setting() {
+    let ring: Vec<String> = circle(0.0, 0.0, 5.0, 4096, 0.0)
+        .iter()
+        .map(|p| format!("[{},{}]", p.x, p.y))
+        .collect();
+    let text = |settings: &str| {
+        format!(
+            r#"{{"outer": {{"points": [[-10,-10],[10,-10],[10,10],[-10,10]], "material": [1,0,0,0]}}, "holes": [{{"points": [{}], "material": [0,1,0,0]}}], "settings": {{{settings}}}}}"#,
+            ring.join(",")
+        )
+    };
+    run_on_large_stack(|| {
+        let s = host_sim::slice_file::parse(&text("")).unwrap().slice;
+        assert!(
+            s.holes()[0].points().len() <= 256,
+            "{}",
+            s.holes()[0].points().len()
+        );
+        let s = host_sim::slice_file::parse(&text(r#""simplify_tolerance": 0"#))
+            .unwrap()
+            .slice;
+        assert_eq!(s.holes()[0].points().len(), 4096);
+        let e = host_sim::slice_file::parse(&text(r#""simplify_tolerance": 0.1"#)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid slice: setting simplify_tolerance: 0.1 is out of range"
+        );
     });
 }

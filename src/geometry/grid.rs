@@ -34,7 +34,7 @@ impl Grid {
                 return h;
             }
             let next = h * 1.03;
-            if !(next <= h_max) {
+            if next.is_nan() || next > h_max || h_max.is_nan() {
                 return h;
             }
             h = next;
