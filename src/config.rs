@@ -1,21 +1,58 @@
 //! Capacities and defaults, in one place.
 //!
 //! Every buffer of the core is fixed-capacity; its size is one of the constants below. Exceeding
-//! one is an [`Error::Capacity`](crate::Error::Capacity) naming the [`Limit`](crate::Limit), never
-//! a panic and never a silently truncated plan.
+//! one is an [`Error`](crate::Error) naming the limit ([`Error::Capacity`](crate::Error::Capacity)
+//! with its [`Limit`](crate::Limit), or [`Error::SliceTooLarge`](crate::Error::SliceTooLarge)
+//! for the grids), never a panic and never a silently truncated plan.
 //!
-//! The sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM; the
-//! firmware's `memory.x` clips QEMU's memory to that): the whole [`Planner`](crate::Planner)
-//! is about 290 KiB and is meant to live in a `static`; one layer's path buffer
-//! ([`PATH_VERTICES`]) another 224 KiB. `tests/capacity.rs` in host-sim prints
-//! how full each buffer gets on the reference slices.
+//! ## Two sets of capacities, one plan
+//!
+//! The default sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM;
+//! the firmware's `memory.x` clips QEMU's memory to that): the whole
+//! [`Planner`](crate::Planner) is about 290 KiB and is meant to live in a `static`; one
+//! layer's path buffer ([`PATH_VERTICES`]) another 224 KiB. They hold 8 hollow features of up
+//! to 256 vertices in about 75 x 75 mm at 0.4 mm roads.
+//!
+//! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
+//! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
+//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 4.9 MiB, the
+//! offset spiral's working memory 1.4 MiB and a [`Slice`](crate::Slice) 2.3 MiB: keep them on the heap, and build and run them on a
+//! thread with a large stack (host-sim's `run_on_large_stack`), as the layers' working sets
+//! are on the stack too.
+//!
+//! The capacities only decide whether a slice is accepted: everything that shapes a plan (the
+//! grid spacings, [`GRID_SPACING_NODES`], the per-polyline point budgets [`HALF_POINTS`] and
+//! [`BISECTOR_POINTS`] that the simplification tolerances are searched against) is the same in
+//! both sets, so a slice both builds accept gets bit-identical plans (`host-sim/tests/mcu.rs`).
+//!
+//! RAM per unit of capacity (bytes; the `large` figures in brackets):
+//!
+//! | unit | where | bytes |
+//! |------|-------|-------|
+//! | hollow feature | `Slice` (vertices, chunk boxes) | 8 per vertex + 1 per vertex (2.3 KiB [36 KiB]) |
+//! | feature's keep-out curve | zigzag layer, on the stack | 12 per vertex (3 KiB [48 KiB]) |
+//! | field grid node (cell) | `Planner` (label, `u`) | 5 (80 KiB [320 KiB]) |
+//! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
+//! | offset-spiral grid node | `OffsetSpiral` (distance, mark) | 5 (80 KiB [320 KiB]) |
+//! | MCL half | `Planner` | 240 (150 KiB [3.75 MiB]) |
+//!
+//! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices,
+//! and the sizes of the working sets.
 
-/// Most hollow features in one slice.
-pub const MAX_HOLES: usize = 8;
-/// Most vertices of one polygon (the wall or a hollow feature).
-pub const MAX_VERTICES: usize = 256;
+/// Whether the real-size capacities of the cargo feature `large` are compiled in.
+pub const LARGE: bool = cfg!(feature = "large");
+
+/// Most hollow features in one slice (8; 64 with `large`).
+pub const MAX_HOLES: usize = if LARGE { 64 } else { 8 };
+/// Most vertices of one polygon, the wall or a hollow feature (256; 4096 with `large`).
+pub const MAX_VERTICES: usize = if LARGE { 4_096 } else { 256 };
 /// Material channels (reservoirs / valves) per composition.
 pub const CHANNELS: usize = 4;
+/// Contours with more distinct vertices than this are simplified within the slice's
+/// `simplify_tolerance` ([`Slice::from_contours`](crate::Slice::from_contours)); contours with
+/// fewer are kept exactly as given. A rule constant, the same in every build (not a capacity),
+/// so both builds store the same polygons.
+pub const SIMPLIFY_ABOVE_VERTICES: usize = 256;
 /// Largest absolute coordinate accepted, in millimetres.
 pub const MAX_COORD_MM: f32 = 1000.0;
 /// Largest road width accepted, in millimetres.
@@ -25,14 +62,21 @@ pub const MIN_ROAD_WIDTH_MM: f32 = 0.01;
 /// Most relaxation sweeps a slice may ask for.
 pub const MAX_RELAX_ITERATIONS: u8 = 64;
 
-/// Nodes of the grid that carries the cell labels and the harmonic field.
-pub const GRID_NODES: usize = 16_384;
-/// Grid nodes next to a boundary (the Shortley-Weller table).
-pub const BOUNDARY_NODES: usize = 3_072;
-/// Preferred grid spacing as a fraction of the road width (coarsened to fit [`GRID_NODES`]).
+/// Nodes of the grid that carries the cell labels and the harmonic field (16 384; 65 536
+/// with `large`). Also the capacity of the offset spiral's distance grid.
+pub const GRID_NODES: usize = if LARGE { 65_536 } else { 16_384 };
+/// Grid nodes next to a boundary, the Shortley-Weller table (3072; 32 768 with `large`).
+pub const BOUNDARY_NODES: usize = if LARGE { 32_768 } else { 3_072 };
+/// Preferred grid spacing as a fraction of the road width.
 pub const GRID_SPACING_PER_ROAD: f32 = 0.6;
-/// The coarsest grid accepted, as a multiple of the road width: a slice that would need a
-/// coarser grid to fit [`GRID_NODES`] is refused (about 75 x 75 mm at 0.4 mm roads).
+/// The spacing rule's node budget, the same in every build (not a capacity): from the
+/// preferred spacing, a grid is coarsened in steps of 3 % while it has more nodes than this,
+/// up to [`MAX_GRID_SPACING_PER_ROAD`]. A grid that then has more nodes than its capacity
+/// ([`GRID_NODES`]) is refused.
+pub const GRID_SPACING_NODES: usize = 16_384;
+/// The coarsest grid spacing, as a multiple of the road width: coarser would not resolve the
+/// cells (at this spacing [`GRID_NODES`] cover about 75 x 75 mm at 0.4 mm roads; 150 x 150
+/// mm with `large`).
 pub const MAX_GRID_SPACING_PER_ROAD: f32 = 1.5;
 /// Most Gauss-Seidel/SOR sweeps of the field solve.
 pub const FIELD_MAX_SWEEPS: u32 = 4_000;
@@ -42,37 +86,59 @@ pub const FIELD_TOLERANCE: f32 = 2.0e-6;
 pub const FIELD_OMEGA: f32 = 1.9;
 
 /// Most bisector pieces (one per adjacent pair of cells, more where the wall splits one).
-pub const MAX_BISECTORS: usize = 20;
-/// Most points of one stored bisector polyline.
+pub const MAX_BISECTORS: usize = if LARGE { 256 } else { 20 };
+/// Most points of one stored bisector polyline, the same in every build: a traced bisector is
+/// simplified with the finest tolerance (from 2 µm, doubling) that fits it, so this shapes
+/// the plan.
 pub const BISECTOR_POINTS: usize = 128;
 /// Most branch points.
-pub const MAX_BRANCH_POINTS: usize = 48;
+pub const MAX_BRANCH_POINTS: usize = if LARGE { 512 } else { 48 };
 /// Grid edges where two cells meet, used as seeds for tracing bisectors.
-pub const BISECTOR_SEEDS: usize = 2_048;
+pub const BISECTOR_SEEDS: usize = if LARGE { 16_384 } else { 2_048 };
 
 /// Most MCL halves (feature to cell boundary) traced in one slice.
-pub const MAX_HALVES: usize = 640;
-/// Most points of one traced half after simplification.
+pub const MAX_HALVES: usize = if LARGE { 16_384 } else { 640 };
+/// Most points of one traced half after simplification, the same in every build: a half is
+/// simplified with the finest tolerance (from 0.5 % of a road, doubling) that fits it, so this
+/// shapes the plan.
 pub const HALF_POINTS: usize = 24;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.
-pub const MAX_MCLS: usize = 512;
+pub const MAX_MCLS: usize = if LARGE { 8_192 } else { 512 };
 /// Raw streamline points before simplification.
-pub const TRACE_POINTS: usize = 1_024;
+pub const TRACE_POINTS: usize = if LARGE { 4_096 } else { 1_024 };
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 
 /// Points of all the offset spiral's traced loops together
 /// ([`OffsetSpiral`](crate::toolpath::offset::OffsetSpiral)).
-pub const CONTOUR_POINTS: usize = 8_192;
+pub const CONTOUR_POINTS: usize = if LARGE { 65_535 } else { 8_192 };
 /// Most loops of one offset-spiral layer.
-pub const MAX_LOOPS: usize = 256;
+pub const MAX_LOOPS: usize = if LARGE { 4_096 } else { 256 };
 /// Most pairs of loops running side by side (and joins) in one offset-spiral layer.
-pub const MAX_SITES: usize = 512;
+pub const MAX_SITES: usize = if LARGE { 8_192 } else { 512 };
 
 /// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
 pub const PATH_VERTICES: usize = 8_192;
+
+// The core stores indices in narrow integers; every `as u8` / `as u16` cast of an index is
+// bounded by one of these (a capacity too large for its index type does not compile):
+// hole indices (`FeatureId::Hole`, `Half::hole`, `Mcl::from`, `Bisector::a`) are `u8`, and a
+// field label holds a hole index below `field::KEEP_OUT` (0x40) with the wall's curve after them;
+const _: () = assert!(MAX_HOLES <= 64);
+// vertex and edge indices in errors are `u16`;
+const _: () = assert!(MAX_VERTICES <= u16::MAX as usize);
+// half and MCL indices are `u16`, with `u16::MAX` spare as "none";
+const _: () = assert!(MAX_HALVES < u16::MAX as usize);
+const _: () = assert!(MAX_MCLS < u16::MAX as usize);
+// the bisector a half ends on (`Half::on_bisector`) is a `u8`;
+const _: () = assert!(MAX_BISECTORS <= u8::MAX as usize + 1);
+// offset-spiral loop and site indices are `u16`, with `u16::MAX` spare as "none";
+const _: () = assert!(MAX_LOOPS < u16::MAX as usize);
+const _: () = assert!(MAX_SITES < u16::MAX as usize);
+// material channels are `u8`.
+const _: () = assert!(CHANNELS <= u8::MAX as usize);
 
 /// Default settings (see [`Settings`](crate::Settings)).
 pub mod defaults {
@@ -80,6 +146,8 @@ pub mod defaults {
     pub const ROAD_WIDTH: f32 = 0.4;
     /// Layer height, mm.
     pub const LAYER_HEIGHT: f32 = 0.3;
+    /// Contour simplification tolerance, mm (at most a tenth of the road width).
+    pub const SIMPLIFY_TOLERANCE: f32 = 0.005;
     /// Weight `w_n` of the normal term of the matching objective (2.1).
     pub const W_N: f32 = 1.0;
     /// Weight `w_d` of the distance term of the matching objective (2.1).

@@ -51,6 +51,8 @@ pub enum SettingId {
     MaxWidth,
     /// `relax_iterations`
     RelaxIterations,
+    /// `simplify_tolerance`
+    SimplifyTolerance,
 }
 
 impl SettingId {
@@ -67,6 +69,7 @@ impl SettingId {
             SettingId::MinWidth => "min_width",
             SettingId::MaxWidth => "max_width",
             SettingId::RelaxIterations => "relax_iterations",
+            SettingId::SimplifyTolerance => "simplify_tolerance",
         }
     }
 }
@@ -84,6 +87,7 @@ impl SettingId {
             SettingId::MinWidth => "more than 0, at most the road width",
             SettingId::MaxWidth => "the road width to 3 road widths",
             SettingId::RelaxIterations => "a whole number from 0 to 64",
+            SettingId::SimplifyTolerance => "0 to a tenth of the road width, mm",
         }
     }
 }
@@ -148,6 +152,14 @@ impl Limit {
             Limit::ContourPoints => CONTOUR_POINTS,
             Limit::ContourLoops => MAX_LOOPS,
             Limit::ContourSites => MAX_SITES,
+        }
+    }
+
+    /// The [`Error::Capacity`] of this limit, with no feature named.
+    pub(crate) const fn error(self) -> Error {
+        Error::Capacity {
+            limit: self,
+            feature: None,
         }
     }
 
@@ -281,6 +293,36 @@ pub enum Error {
         /// The hollow feature.
         hole: u8,
     },
+    /// A polygon has more vertices than [`MAX_VERTICES`](crate::config::MAX_VERTICES).
+    TooManyVertices {
+        /// The polygon.
+        feature: FeatureId,
+        /// How many distinct consecutive vertices it was given.
+        vertices: u32,
+        /// Whether it had been simplified (and still has too many).
+        simplified: bool,
+    },
+    /// The slice has more hollow features than [`MAX_HOLES`](crate::config::MAX_HOLES).
+    TooManyHoles {
+        /// How many it was given.
+        holes: u32,
+    },
+    /// The slice is too large for a grid at its road width: at the coarsest spacing the road
+    /// allows ([`MAX_GRID_SPACING_PER_ROAD`](crate::config::MAX_GRID_SPACING_PER_ROAD)), the
+    /// grid would need more nodes than its capacity
+    /// ([`GRID_NODES`](crate::config::GRID_NODES)).
+    SliceTooLarge {
+        /// Width of the wall's bounding box, mm.
+        width: f32,
+        /// Height of the wall's bounding box, mm.
+        height: f32,
+        /// The road width, mm.
+        road_width: f32,
+        /// Side of the largest square the grid holds at this road width, mm.
+        holds: f32,
+        /// The offset spiral's distance grid (else the planner's field grid).
+        spiral: bool,
+    },
     /// A fixed capacity was exceeded.
     Capacity {
         /// Which capacity.
@@ -341,6 +383,44 @@ impl fmt::Display for Error {
             Error::NoRoom { hole } => write!(
                 f,
                 "hole {hole}: no material changing line fits between it and its cell boundary (too little room for a road)"
+            ),
+            Error::TooManyVertices {
+                feature,
+                vertices,
+                simplified: false,
+            } => write!(
+                f,
+                "{feature} has {vertices} vertices; at most {}: simplify the polygon or split the feature",
+                crate::config::MAX_VERTICES
+            ),
+            Error::TooManyVertices {
+                feature,
+                vertices,
+                simplified: true,
+            } => write!(
+                f,
+                "{feature} has more than {} vertices after simplification ({vertices} given): raise simplify_tolerance or split the feature",
+                crate::config::MAX_VERTICES
+            ),
+            Error::TooManyHoles { holes } => write!(
+                f,
+                "the slice has {holes} hollow features; at most {}: split the slice",
+                crate::config::MAX_HOLES
+            ),
+            Error::SliceTooLarge {
+                width,
+                height,
+                road_width,
+                holds,
+                spiral,
+            } => write!(
+                f,
+                "the slice is {width:.1} x {height:.1} mm; at road_width {road_width} the {} holds {holds:.1} x {holds:.1} mm: use a coarser road or split the slice",
+                if spiral {
+                    "offset spiral's grid"
+                } else {
+                    "field grid"
+                }
             ),
             Error::Capacity { limit, feature } => {
                 if let Some(feature) = feature {

@@ -15,7 +15,7 @@
 use heapless::Vec;
 
 use crate::config::{
-    BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES,
+    BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES, GRID_SPACING_NODES,
     GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
 };
 use crate::geometry::{Grid, Point};
@@ -25,6 +25,9 @@ use crate::{Error, Limit, Slice};
 pub const OUTSIDE: u8 = 0xFF;
 /// Flag of a node in a hole's keep-out band (the low bits give the hole).
 pub const KEEP_OUT: u8 = 0x40;
+
+// `BoundaryNode::node` is a `u16` node index.
+const _: () = assert!(GRID_NODES <= u16::MAX as usize + 1);
 
 /// Arms of a node: +x, -x, +y, -y.
 const ARMS: [(isize, isize); 4] = [(1, 0), (-1, 0), (0, 1), (0, -1)];
@@ -94,17 +97,25 @@ impl Field {
     pub fn label_nodes(&mut self, slice: &Slice) -> Result<(), Error> {
         let w = slice.settings().road_width;
         let (lo, hi) = slice.wall().bbox();
-        self.grid = Grid::covering(lo, hi, w * GRID_SPACING_PER_ROAD, GRID_NODES);
-        if self.grid.h > MAX_GRID_SPACING_PER_ROAD * w {
-            // Too coarse to resolve the cells at this road width.
-            return Err(Error::Capacity {
-                limit: Limit::GridNodes,
-                feature: None,
-            });
-        }
         self.labels.clear();
         self.u.clear();
         self.boundary.clear();
+        // The spacing depends on the slice and the road only; the capacity only decides
+        // whether the grid fits.
+        let h = Grid::spacing(
+            lo,
+            hi,
+            w * GRID_SPACING_PER_ROAD,
+            GRID_SPACING_NODES,
+            MAX_GRID_SPACING_PER_ROAD * w,
+        );
+        self.grid = Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
+            width: hi.x - lo.x,
+            height: hi.y - lo.y,
+            road_width: w,
+            holds: Grid::square_side(h, GRID_NODES),
+            spiral: false,
+        })?;
         let half = 0.5 * w;
         for k in 0..self.grid.len() {
             let p = self.grid.node(k);
@@ -121,9 +132,10 @@ impl Field {
                     (i as u8, a / (a + b).max(1e-6))
                 }
             };
-            // Capacity: the grid was sized to fit.
-            let _ = self.labels.push(label);
-            let _ = self.u.push(u0);
+            self.labels
+                .push(label)
+                .map_err(|_| Limit::GridNodes.error())?;
+            self.u.push(u0).map_err(|_| Limit::GridNodes.error())?;
         }
         for k in 0..self.grid.len() {
             let i = self.labels[k];
@@ -149,6 +161,7 @@ impl Field {
                 } else {
                     1.0
                 };
+                // In 13..=255 after the clamp: fits the `u8`.
                 entry.theta[a] = (libm::roundf(theta.clamp(0.05, 1.0) * 255.0) as u8).max(1);
                 if one {
                     entry.one |= 1 << a;

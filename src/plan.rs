@@ -105,6 +105,8 @@ impl Plan {
 /// MCU (or a `Box` on the host).
 ///
 /// ```
+/// # // The host build's capacities take megabytes: run on a large stack.
+/// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
 /// # use hollowpath::{Feature, FeatureId, Planner, Settings, Slice, geometry::Point};
 /// # let circle = |cx: f32, r: f32, n: usize| -> Vec<Point> {
 /// #     (0..n).map(|k| {
@@ -118,6 +120,7 @@ impl Plan {
 /// let mut planner = Box::new(Planner::new());
 /// let plan = planner.plan(&slice).unwrap();
 /// assert!(plan.mcls.len() > 50);
+/// # }).unwrap().join().unwrap();
 /// ```
 pub struct Planner {
     field: Field,
@@ -212,7 +215,7 @@ impl Planner {
         let mut remap: Vec<u16, MAX_HALVES> = Vec::new();
         let mut next = 0u16;
         for h in plan.halves.iter() {
-            let _ = remap.push(next);
+            remap.push(next).map_err(|_| Limit::Halves.error())?;
             if h.alive {
                 next += 1;
             }

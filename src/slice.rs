@@ -6,7 +6,7 @@
 
 use heapless::Vec;
 
-use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES};
+use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES, SIMPLIFY_ABOVE_VERTICES};
 use crate::geometry::{polygon, polyline, Point};
 use crate::{Error, FeatureId, Limit, SettingId};
 
@@ -34,6 +34,8 @@ pub struct Feature {
 
 /// Edges per chunk of a feature's distance index.
 const CHUNK: usize = 16;
+// `n <= MAX_VERTICES` points make at most `MAX_VERTICES / CHUNK` chunks.
+const _: () = assert!(MAX_VERTICES % CHUNK == 0);
 
 /// The nearest boundary point of a feature to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,10 +94,13 @@ impl Feature {
             if pts.last() == Some(&p) {
                 continue;
             }
-            pts.push(p).map_err(|_| Error::Capacity {
-                limit: Limit::Vertices,
-                feature: Some(id),
-            })?;
+            if pts.push(p).is_err() {
+                return Err(Error::TooManyVertices {
+                    feature: id,
+                    vertices: distinct_consecutive(points),
+                    simplified: false,
+                });
+            }
         }
         while pts.len() > 1 && pts.first() == pts.last() {
             pts.pop();
@@ -142,7 +147,7 @@ impl Feature {
             let closing = pts[end % n];
             b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
             b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
-            // MAX_VERTICES / CHUNK chunks at most.
+            // Cannot fail: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
             let _ = chunks.push(b);
         }
         Ok(Feature {
@@ -152,6 +157,85 @@ impl Feature {
             bbox,
             chunks,
         })
+    }
+
+    /// [`Feature::new`] of `points` simplified within `tolerance` (mm) when they have more than
+    /// [`SIMPLIFY_ABOVE_VERTICES`] distinct vertices (else, or with `tolerance` 0, exactly
+    /// `Feature::new`). Douglas-Peucker on the closed polygon in fixed memory (the kept
+    /// vertices' indices only): every input vertex stays within `tolerance` of the result. If
+    /// the result would intersect itself or degenerate, the tolerance is halved (more vertices
+    /// kept) until it does not.
+    ///
+    /// ```
+    /// # // The host build's capacities take megabytes: run on a large stack.
+    /// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
+    /// use hollowpath::{Feature, FeatureId, geometry::Point};
+    /// let circle: Vec<Point> = (0..4096)
+    ///     .map(|k| {
+    ///         let a = k as f32 / 4096.0 * std::f32::consts::TAU;
+    ///         Point::new(5.0 * a.cos(), 5.0 * a.sin())
+    ///     })
+    ///     .collect();
+    /// let f = Feature::simplified(FeatureId::Hole(0), &circle, [0.0, 1.0, 0.0, 0.0], 0.005).unwrap();
+    /// assert!(f.points().len() <= 128);
+    /// # }).unwrap().join().unwrap();
+    /// ```
+    pub fn simplified(
+        id: FeatureId,
+        points: &[Point],
+        material: Material,
+        tolerance: f32,
+    ) -> Result<Feature, Error> {
+        if tolerance.is_nan()
+            || tolerance <= 0.0
+            || distinct_consecutive(points) as usize <= SIMPLIFY_ABOVE_VERTICES
+        {
+            return Feature::new(id, points, material);
+        }
+        for (k, &p) in points.iter().enumerate() {
+            let vertex = k.min(u16::MAX as usize) as u16;
+            if !p.is_finite() {
+                return Err(Error::NonFinite {
+                    feature: id,
+                    vertex,
+                });
+            }
+            if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
+                return Err(Error::OutOfRange {
+                    feature: id,
+                    vertex,
+                });
+            }
+        }
+        let mut n = points.len();
+        if n > 1 && points[n - 1] == points[0] {
+            n -= 1;
+        }
+        let mut tol = tolerance;
+        loop {
+            let Some(kept) = douglas_peucker_closed(&points[..n], tol) else {
+                return Err(Error::TooManyVertices {
+                    feature: id,
+                    vertices: distinct_consecutive(points),
+                    simplified: true,
+                });
+            };
+            let mut pts: Vec<Point, MAX_VERTICES> = Vec::new();
+            for &k in kept.iter() {
+                // Cannot fail: `kept` has the same capacity.
+                let _ = pts.push(points[k as usize]);
+            }
+            match Feature::new(id, &pts, material) {
+                Err(
+                    Error::SelfIntersection { .. }
+                    | Error::ZeroArea { .. }
+                    | Error::TooFewPoints { .. },
+                ) if tol > MIN_SIMPLIFY_TOLERANCE => {
+                    tol *= 0.5;
+                }
+                other => return other,
+            }
+        }
     }
 
     /// Which feature this is.
@@ -174,12 +258,13 @@ impl Feature {
     /// so far are skipped (nearest chunk first).
     pub fn nearest(&self, p: Point) -> Nearest {
         let n = self.points.len();
-        let mut bounds = [(0.0f32, 0usize); MAX_VERTICES / CHUNK];
+        // Filled as needed: a large MAX_VERTICES costs no clearing per query.
+        let mut bounds: Vec<(f32, usize), { MAX_VERTICES / CHUNK }> = Vec::new();
         for (c, b) in self.chunks.iter().enumerate() {
             let d = polygon::bbox_distance(*b, p);
-            bounds[c] = (d * d, c);
+            // Cannot fail: one per chunk, of the same capacity.
+            let _ = bounds.push((d * d, c));
         }
-        let bounds = &mut bounds[..self.chunks.len()];
         bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best = (self.points[0], f32::INFINITY, 0);
         for &(lower, c) in bounds.iter() {
@@ -224,6 +309,66 @@ fn spread_area(pts: &[Point]) -> f32 {
     } else {
         0.5 * twice
     }
+}
+
+/// Below this tolerance (mm) simplification stops refining: the input itself is at fault.
+const MIN_SIMPLIFY_TOLERANCE: f32 = 1e-6;
+
+/// Douglas-Peucker on the closed polygon `points`: the indices (ascending) of the vertices
+/// kept, every other vertex within `tol` of the polygon they make; `None` if more than
+/// [`MAX_VERTICES`] are needed. Starts from vertex 0 and the vertex farthest from it, and
+/// splits each gap at its farthest vertex while that is farther than `tol`, depth first.
+fn douglas_peucker_closed(points: &[Point], tol: f32) -> Option<Vec<u32, MAX_VERTICES>> {
+    let n = points.len();
+    let mut kept: Vec<u32, MAX_VERTICES> = Vec::new();
+    kept.push(0).ok()?;
+    let far = (1..n).fold((0, 0.0f32), |best, k| {
+        let d = points[k].dist(points[0]);
+        if d > best.1 {
+            (k, d)
+        } else {
+            best
+        }
+    });
+    if far.0 == 0 {
+        return Some(kept);
+    }
+    kept.push(far.0 as u32).ok()?;
+    let mut p = 0;
+    while p < kept.len() {
+        let i = kept[p] as usize;
+        // The gap after the last kept vertex closes the polygon through vertex 0.
+        let j = if p + 1 < kept.len() {
+            kept[p + 1] as usize
+        } else {
+            n
+        };
+        let (a, b) = (points[i], points[j % n]);
+        let mut best = (0.0f32, 0usize);
+        for (k, &q) in points.iter().enumerate().take(j).skip(i + 1) {
+            let (c, _) = polyline::closest_on_segment(a, b, q);
+            let d = c.dist(q);
+            if d > best.0 {
+                best = (d, k);
+            }
+        }
+        if best.0 > tol {
+            kept.insert(p + 1, best.1 as u32).ok()?;
+        } else {
+            p += 1;
+        }
+    }
+    Some(kept)
+}
+
+/// Points of `points` that differ from the one before them (the closing repeat not counted).
+fn distinct_consecutive(points: &[Point]) -> u32 {
+    let n = points.len();
+    let kept = (0..n)
+        .filter(|&k| k == 0 || points[k] != points[k - 1])
+        .count();
+    let closing = n > 1 && points[n - 1] == points[0];
+    (kept - usize::from(closing)).min(u32::MAX as usize) as u32
 }
 
 fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
@@ -280,6 +425,11 @@ pub struct Settings {
     /// road width to 3 road widths). Where neighbouring roads diverge, a road widens to their
     /// spacing up to this, rather than leaving a gap.
     pub max_width: f32,
+    /// `simplify_tolerance`: contours of more than
+    /// [`SIMPLIFY_ABOVE_VERTICES`](crate::config::SIMPLIFY_ABOVE_VERTICES) vertices are
+    /// simplified within this, mm, before planning ([`Slice::from_contours`]; default 0.005,
+    /// at most a tenth of the road width; 0 keeps every vertex).
+    pub simplify_tolerance: f32,
 }
 
 impl Settings {
@@ -296,6 +446,7 @@ impl Settings {
             relax_spacing: road_width,
             min_width: defaults::MIN_WIDTH_PER_ROAD * road_width,
             max_width: defaults::MAX_WIDTH_PER_ROAD * road_width,
+            simplify_tolerance: defaults::SIMPLIFY_TOLERANCE.min(0.1 * road_width),
         }
     }
 
@@ -348,6 +499,11 @@ impl Settings {
                 self.max_width,
                 self.max_width >= self.road_width && self.max_width <= 3.0 * self.road_width,
             ),
+            (
+                SettingId::SimplifyTolerance,
+                self.simplify_tolerance,
+                self.simplify_tolerance >= 0.0 && self.simplify_tolerance <= 0.1 * self.road_width,
+            ),
         ];
         if self.relax_iterations > config::MAX_RELAX_ITERATIONS {
             return Err(Error::InvalidSetting {
@@ -374,6 +530,8 @@ impl Default for Settings {
 /// A validated slice.
 ///
 /// ```
+/// # // The host build's capacities take megabytes: run on a large stack.
+/// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
 /// use hollowpath::{Feature, FeatureId, Settings, Slice, geometry::Point};
 /// let circle = |cx: f32, r: f32, n: usize| -> Vec<Point> {
 ///     (0..n).map(|k| {
@@ -385,6 +543,7 @@ impl Default for Settings {
 /// let hole = Feature::new(FeatureId::Hole(0), &circle(0.0, 3.0, 32), [0.0, 1.0, 0.0, 0.0]).unwrap();
 /// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
 /// assert_eq!(slice.holes().len(), 1);
+/// # }).unwrap().join().unwrap();
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Slice {
@@ -402,9 +561,8 @@ impl Slice {
             return Err(Error::NoHoles);
         }
         if holes.len() > MAX_HOLES {
-            return Err(Error::Capacity {
-                limit: Limit::Holes,
-                feature: None,
+            return Err(Error::TooManyHoles {
+                holes: holes.len().min(u32::MAX as usize) as u32,
             });
         }
         let mut stored: Vec<Feature, MAX_HOLES> = Vec::new();
@@ -445,8 +603,7 @@ impl Slice {
                     });
                 }
             }
-            // Capacity was checked above.
-            let _ = stored.push(h);
+            stored.push(h).map_err(|_| Limit::Holes.error())?;
         }
         let mut wall = wall;
         wall.id = FeatureId::Wall;
@@ -455,6 +612,61 @@ impl Slice {
             holes: stored,
             settings,
         })
+    }
+
+    /// Builds and validates a slice from raw contours (a wall and `(points, material)` per
+    /// hole), simplifying each contour within `settings.simplify_tolerance` as
+    /// [`Feature::simplified`] does. Where a simplified contour would meet or leave another
+    /// (the wall, a hole), the contours concerned are simplified again with half the
+    /// tolerance, keeping more vertices, until they do not.
+    pub fn from_contours(
+        wall: &[Point],
+        wall_material: Material,
+        holes: &[(&[Point], Material)],
+        settings: Settings,
+    ) -> Result<Slice, Error> {
+        settings.validate()?;
+        if holes.len() > MAX_HOLES {
+            return Err(Error::TooManyHoles {
+                holes: holes.len().min(u32::MAX as usize) as u32,
+            });
+        }
+        const WALL: usize = MAX_HOLES;
+        let mut tols = [settings.simplify_tolerance; MAX_HOLES + 1];
+        loop {
+            let w = Feature::simplified(FeatureId::Wall, wall, wall_material, tols[WALL])?;
+            let mut built: Vec<Feature, MAX_HOLES> = Vec::new();
+            for (i, &(pts, m)) in holes.iter().enumerate() {
+                let f = Feature::simplified(FeatureId::Hole(i as u8), pts, m, tols[i])?;
+                // Cannot fail: `holes.len() <= MAX_HOLES` was checked.
+                let _ = built.push(f);
+            }
+            let e = match Slice::new(w, &built, settings) {
+                Ok(slice) => return Ok(slice),
+                Err(e) => e,
+            };
+            let named = match e {
+                Error::HoleOutsideWall { hole, .. } | Error::HoleCrossesWall { hole, .. } => {
+                    [hole as usize, WALL]
+                }
+                Error::HolesOverlap { a, b } => [a as usize, b as usize],
+                Error::HolesNested { outer, inner } => [outer as usize, inner as usize],
+                _ => return Err(e),
+            };
+            let mut refined = false;
+            for k in named {
+                let pts = if k == WALL { wall } else { holes[k].0 };
+                if tols[k] > MIN_SIMPLIFY_TOLERANCE
+                    && distinct_consecutive(pts) as usize > SIMPLIFY_ABOVE_VERTICES
+                {
+                    tols[k] *= 0.5;
+                    refined = true;
+                }
+            }
+            if !refined {
+                return Err(e);
+            }
+        }
     }
 
     /// The outer wall.

@@ -90,12 +90,14 @@ fn polygon_errors() {
             edge_b: 2
         })
     );
-    let many = circle(0.0, 0.0, 5.0, 300, 0.0);
+    let over = hollowpath::config::MAX_VERTICES as u32 + 44;
+    let many = circle(0.0, 0.0, 5.0, over as usize, 0.0);
     assert_eq!(
         Feature::new(FeatureId::Wall, &many, WALL),
-        Err(Error::Capacity {
-            limit: Limit::Vertices,
-            feature: Some(FeatureId::Wall)
+        Err(Error::TooManyVertices {
+            feature: FeatureId::Wall,
+            vertices: over,
+            simplified: false
         })
     );
 }
@@ -140,9 +142,10 @@ fn a_repeated_closing_point_does_not_count_against_the_vertex_limit() {
     let more = circle(0.0, 0.0, 5.0, n + 1, 0.0);
     assert_eq!(
         Feature::new(FeatureId::Wall, &more, WALL),
-        Err(Error::Capacity {
-            limit: Limit::Vertices,
-            feature: Some(FeatureId::Wall)
+        Err(Error::TooManyVertices {
+            feature: FeatureId::Wall,
+            vertices: n as u32 + 1,
+            simplified: false
         })
     );
 }
@@ -246,16 +249,15 @@ fn hole_placement_errors() {
 #[test]
 fn slice_level_errors() {
     assert_eq!(slice_err(&[]), Error::NoHoles);
-    let holes: Vec<Feature> = (0..9)
-        .map(|k| hole(k as u8, &square((-8.0 + 2.0 * k as f32, 0.0), 0.5)).unwrap())
+    // One more than the build holds (8 on the MCU, 64 on the host), on a 9 x 9 grid.
+    let n = hollowpath::config::MAX_HOLES + 1;
+    let holes: Vec<Feature> = (0..n)
+        .map(|k| {
+            let at = (-8.0 + 2.0 * (k % 9) as f32, -8.0 + 2.0 * (k / 9) as f32);
+            hole(k as u8, &square(at, 0.5)).unwrap()
+        })
         .collect();
-    assert_eq!(
-        slice_err(&holes),
-        Error::Capacity {
-            limit: Limit::Holes,
-            feature: None
-        }
-    );
+    assert_eq!(slice_err(&holes), Error::TooManyHoles { holes: n as u32 });
     let h = hole(0, &square((0.0, 0.0), 2.0)).unwrap();
     for (settings, id, value) in [
         (
@@ -381,6 +383,11 @@ fn slice_level_errors() {
     ));
 }
 
+#[cfg(not(feature = "large"))]
+const MCLS_MESSAGE: &str = "capacity exceeded: more than 512 material changing lines";
+#[cfg(feature = "large")]
+const MCLS_MESSAGE: &str = "capacity exceeded: more than 8192 material changing lines";
+
 #[test]
 fn messages_name_feature_and_reason() {
     let cases = [
@@ -405,7 +412,7 @@ fn messages_name_feature_and_reason() {
                 limit: Limit::Mcls,
                 feature: None,
             },
-            "capacity exceeded: more than 512 material changing lines",
+            MCLS_MESSAGE,
         ),
         (
             Error::InvalidSetting {
@@ -439,11 +446,6 @@ fn messages_name_feature_and_reason() {
         (64, 1000.0, 0.01, 10.0),
         "update the messages above and SettingId::allowed"
     );
-    assert_eq!(
-        hollowpath::config::MAX_MCLS,
-        512,
-        "update the message above"
-    );
     for (e, text) in cases {
         assert_eq!(e.to_string(), text);
     }
@@ -468,12 +470,139 @@ fn a_failed_plan_leaves_no_partial_plan() {
         Settings::default(),
     )
     .unwrap();
+    let e = planner.plan(&big).unwrap_err();
+    assert!(
+        matches!(e, Error::SliceTooLarge { spiral: false, .. }),
+        "{e:?}"
+    );
+    // In the user's terms: the slice's size, the road and what the grid holds.
+    // (72.8 mm in the MCU build, 147.4 mm in the host's.)
+    let holds = if cfg!(feature = "large") {
+        "147.4"
+    } else {
+        "72.8"
+    };
     assert_eq!(
-        planner.plan(&big).unwrap_err(),
-        Error::Capacity {
-            limit: Limit::GridNodes,
-            feature: None
-        }
+        e.to_string(),
+        format!("the slice is 400.0 x 400.0 mm; at road_width 0.4 the field grid holds {holds} x {holds} mm: use a coarser road or split the slice")
     );
     assert!(planner.last_plan().mcls.is_empty() && planner.last_plan().halves.is_empty());
+}
+
+fn ring(cx: f32, r: f32, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|k| {
+            let a = k as f32 / n as f32 * std::f32::consts::TAU;
+            Point::new(cx + r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+/// Largest distance from a vertex of `input` to the polygon `simple`.
+fn deviation(input: &[Point], simple: &[Point]) -> f32 {
+    let n = simple.len();
+    input
+        .iter()
+        .map(|&p| {
+            (0..n)
+                .map(|k| {
+                    let (q, _) = hollowpath::geometry::polyline::closest_on_segment(
+                        simple[k],
+                        simple[(k + 1) % n],
+                        p,
+                    );
+                    q.dist(p)
+                })
+                .fold(f32::INFINITY, f32::min)
+        })
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn a_4096_vertex_circle_simplifies_within_tolerance_and_fits_the_mcu() {
+    let circle = ring(0.0, 5.0, 4096);
+    let f = Feature::simplified(FeatureId::Hole(0), &circle, A, 0.005).unwrap();
+    let n = f.points().len();
+    assert!((20..=hollowpath::config::MAX_VERTICES).contains(&n), "{n}");
+    assert!(deviation(&circle, f.points()) <= 0.005 + 1e-5);
+    // Feature::new would refuse it on the MCU build (256 vertices).
+    if !hollowpath::config::LARGE {
+        assert!(matches!(
+            Feature::new(FeatureId::Hole(0), &circle, A),
+            Err(Error::TooManyVertices {
+                vertices: 4096,
+                simplified: false,
+                ..
+            })
+        ));
+    }
+}
+
+#[test]
+fn a_4096_vertex_star_keeps_its_corners() {
+    // 32 points, every edge split into 64 collinear pieces.
+    let corners: Vec<Point> = (0..64)
+        .map(|k| {
+            let a = k as f32 / 64.0 * std::f32::consts::TAU;
+            let r = if k % 2 == 0 { 10.0 } else { 4.0 };
+            Point::new(r * a.cos(), r * a.sin())
+        })
+        .collect();
+    let star: Vec<Point> = (0..4096)
+        .map(|k| {
+            let (c, t) = (k / 64, (k % 64) as f32 / 64.0);
+            corners[c].lerp(corners[(c + 1) % 64], t)
+        })
+        .collect();
+    let f = Feature::simplified(FeatureId::Wall, &star, WALL, 0.005).unwrap();
+    assert_eq!(f.points().len(), 64);
+    for c in &corners {
+        assert!(f.points().iter().any(|p| p.dist(*c) < 1e-4), "{c:?} lost");
+    }
+    assert!(deviation(&star, f.points()) <= 0.005 + 1e-5);
+}
+
+#[test]
+fn simplification_keeps_more_vertices_where_features_would_meet() {
+    // The wall's chords cut up to 5 µm inward at 0.005 mm tolerance; the hole is 2 µm away (the wall keeps 128 vertices, 3 µm in).
+    let wall = ring(0.0, 10.0, 4096);
+    // Its vertices face the middles of the coarse wall's chords.
+    let (sin, cos) = (std::f32::consts::PI / 128.0).sin_cos();
+    let hole: Vec<Point> = ring(0.0, 9.998, 4096)
+        .iter()
+        .map(|p| Point::new(p.x * cos - p.y * sin, p.x * sin + p.y * cos))
+        .collect();
+    let coarse = Feature::simplified(FeatureId::Wall, &wall, WALL, 0.005).unwrap();
+    let s = Slice::from_contours(&wall, WALL, &[(&hole, A)], Settings::default()).unwrap();
+    assert!(s.wall().points().len() > coarse.points().len());
+    assert!(s.wall().points().len() <= hollowpath::config::MAX_VERTICES);
+    assert!(s.holes()[0]
+        .points()
+        .iter()
+        .all(|&p| s.wall().signed_distance(p) < 0.0));
+}
+
+#[test]
+fn simplify_tolerance_is_validated() {
+    let s = Settings {
+        simplify_tolerance: 0.05,
+        ..Settings::default()
+    };
+    assert_eq!(
+        Slice::from_contours(&ring(0.0, 10.0, 64), WALL, &[(&ring(0.0, 3.0, 32), A)], s)
+            .unwrap_err(),
+        Error::InvalidSetting {
+            setting: hollowpath::SettingId::SimplifyTolerance,
+            value: 0.05
+        }
+    );
+    // Contours of at most 256 vertices are kept exactly.
+    let small = ring(0.0, 3.0, 200);
+    let f = Feature::simplified(FeatureId::Hole(0), &small, A, 0.005).unwrap();
+    assert_eq!(
+        f.points(),
+        Feature::new(FeatureId::Hole(0), &small, A)
+            .unwrap()
+            .points()
+    );
 }

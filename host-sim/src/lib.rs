@@ -17,7 +17,28 @@ pub mod slice_file;
 /// The built-in default slice (the four-hole reference slice, after the paper's Fig. 8).
 pub const DEFAULT_SLICE: &str = REFERENCE_SLICES[0].1;
 
-/// Plans `slice` with a fresh planner on the heap (the planner is ~290 KiB).
+/// The stack a thread that reads, plans or draws a slice needs: with the core's `large`
+/// capacities a [`Slice`](hollowpath::Slice) is about 2.3 MiB and the zigzag's keep-out curves
+/// 3 MiB, all built on the stack and moved (virtual memory; only what is touched is mapped).
+/// `.cargo/config.toml` gives the test threads as much through `RUST_MIN_STACK`.
+pub const STACK_BYTES: usize = 256 << 20;
+
+/// Runs `f` on a new thread with a [`STACK_BYTES`] stack and returns its result (a panic in
+/// `f` is resumed here).
+pub fn run_on_large_stack<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    std::thread::scope(|s| {
+        let handle = std::thread::Builder::new()
+            .stack_size(STACK_BYTES)
+            .spawn_scoped(s, f)
+            .expect("cannot start the planning thread");
+        handle
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e))
+    })
+}
+
+/// Plans `slice` with a fresh planner on the heap (the planner is ~290 KiB, ~4.9 MiB with the
+/// `large` capacities: call it on a [`run_on_large_stack`] thread).
 pub fn plan(slice: &hollowpath::Slice) -> Result<Box<hollowpath::Planner>, hollowpath::Error> {
     let mut planner = Box::new(hollowpath::Planner::new());
     planner.plan(slice)?;

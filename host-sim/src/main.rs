@@ -190,6 +190,12 @@ impl Drop for Staged {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // The core's `large` capacities put megabytes on the stack (a slice, the layers' working
+    // sets): plan on a thread with room for them.
+    host_sim::run_on_large_stack(move || execute(cli))
+}
+
+fn execute(cli: Cli) -> ExitCode {
     let result = match cli.command {
         Command::Plan {
             slice,

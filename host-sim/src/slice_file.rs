@@ -7,7 +7,7 @@ use std::path::Path;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::Point;
-use hollowpath::{Feature, FeatureId, Material, SettingId, Settings, Slice};
+use hollowpath::{FeatureId, Material, SettingId, Settings, Slice};
 use serde_json::{Map, Value};
 
 /// Why a slice file could not be turned into a slice.
@@ -112,6 +112,7 @@ const SETTING_KEYS: &[&str] = &[
     "relax_spacing",
     "min_width",
     "max_width",
+    "simplify_tolerance",
 ];
 
 fn kind(v: &Value) -> &'static str {
@@ -200,15 +201,16 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
     for (i, h) in holes.iter().enumerate() {
         let id = FeatureId::Hole(u8::try_from(i).unwrap_or(u8::MAX));
         if i >= hollowpath::config::MAX_HOLES {
-            return Err(hollowpath::Error::Capacity {
-                limit: hollowpath::Limit::Holes,
-                feature: Some(id),
+            return Err(hollowpath::Error::TooManyHoles {
+                holes: u32::try_from(holes.len()).unwrap_or(u32::MAX),
             }
             .into());
         }
         features.push(feature(id, h)?);
     }
-    let slice = Slice::new(wall, &features, settings)?;
+    let refs: Vec<(&[Point], Material)> = features.iter().map(|(p, m)| (&p[..], *m)).collect();
+    // Contours of more than SIMPLIFY_ABOVE_VERTICES vertices are simplified in the core.
+    let slice = Slice::from_contours(&wall.0, wall.1, &refs, settings)?;
     Ok(SliceFile {
         name: name.unwrap_or_default(),
         slice,
@@ -254,6 +256,7 @@ fn settings(v: Option<&Value>) -> Result<Settings, SliceFileError> {
         (SettingId::RelaxSpacing, &mut s.relax_spacing),
         (SettingId::MinWidth, &mut s.min_width),
         (SettingId::MaxWidth, &mut s.max_width),
+        (SettingId::SimplifyTolerance, &mut s.simplify_tolerance),
     ] {
         if let Some(x) = float(id)? {
             *dst = x;
@@ -269,7 +272,8 @@ fn settings(v: Option<&Value>) -> Result<Settings, SliceFileError> {
     Ok(s)
 }
 
-fn feature(id: FeatureId, v: &Value) -> Result<Feature, SliceFileError> {
+/// The points and material of one contour, checked for shape (the core checks the rest).
+fn feature(id: FeatureId, v: &Value) -> Result<(Vec<Point>, Material), SliceFileError> {
     let map = object(v, &id.to_string(), &format!("in {id}"), FEATURE_KEYS)?;
     let where_ = format!("in {id}");
     let Value::Array(material_v) = required(map, "material", &where_)? else {
@@ -335,5 +339,5 @@ fn feature(id: FeatureId, v: &Value) -> Result<Feature, SliceFileError> {
         }
         points.push(Point::new(xy[0], xy[1]));
     }
-    Ok(Feature::new(id, &points, material)?)
+    Ok((points, material))
 }

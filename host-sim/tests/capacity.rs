@@ -23,3 +23,27 @@ fn reference_slices_leave_head_room_in_every_buffer() {
         }
     }
 }
+
+#[test]
+fn working_memory_sizes() {
+    use std::mem::size_of;
+    let rows = [
+        ("Planner", size_of::<hollowpath::Planner>()),
+        ("Slice", size_of::<hollowpath::Slice>()),
+        ("Feature", size_of::<hollowpath::Feature>()),
+        (
+            "OffsetSpiral",
+            size_of::<hollowpath::toolpath::offset::OffsetSpiral>(),
+        ),
+        (
+            "KeepOut",
+            size_of::<hollowpath::keep_out::KeepOut<'static>>(),
+        ),
+        ("Half", size_of::<hollowpath::mcl::Half>()),
+        ("Plan", size_of::<hollowpath::Plan>()),
+        ("Field", size_of::<hollowpath::field::Field>()),
+    ];
+    for (what, bytes) in rows {
+        println!("{what}: {bytes} bytes ({} KiB)", bytes / 1024);
+    }
+}

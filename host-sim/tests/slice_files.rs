@@ -159,28 +159,31 @@ fn invalid_slices_name_the_feature_and_reason() {
 
 #[test]
 fn capacity_limits_are_errors() {
-    let many: Vec<String> = (0..300)
+    // host-sim compiles the core with its `large` capacities: 4096 vertices, 64 holes. A
+    // jagged contour keeps every vertex through simplification.
+    let many: Vec<String> = (0..4100)
         .map(|k| {
-            let a = k as f64 / 300.0 * std::f64::consts::TAU;
-            format!("[{},{}]", 9.0 * a.cos(), 9.0 * a.sin())
+            let a = k as f64 / 4100.0 * std::f64::consts::TAU;
+            let r = if k % 2 == 0 { 9.0 } else { 8.5 };
+            format!("[{},{}]", r * a.cos(), r * a.sin())
         })
         .collect();
     let e = err(&slice(&format!("[{}]", many.join(",")), &[SMALL], ""));
     assert_eq!(
         e,
-        "invalid slice: the wall: capacity exceeded: more than 256 vertices in one polygon"
+        "invalid slice: the wall has more than 4096 vertices after simplification (4100 given): raise simplify_tolerance or split the feature"
     );
-    let holes: Vec<String> = (0..9)
+    let holes: Vec<String> = (0..65)
         .map(|k| {
-            let x = -8.0 + 2.0 * k as f64;
-            format!("[[{x},0],[{},0],[{x},0.5]]", x + 0.5)
+            let (x, y) = (-8.0 + 2.0 * (k % 9) as f64, -8.0 + 2.0 * (k / 9) as f64);
+            format!("[[{x},{y}],[{},{y}],[{x},{}]]", x + 0.5, y + 0.5)
         })
         .collect();
     let refs: Vec<&str> = holes.iter().map(|s| s.as_str()).collect();
     let e = err(&slice(SQUARE, &refs, ""));
     assert_eq!(
         e,
-        "invalid slice: hole 8: capacity exceeded: more than 8 hollow features"
+        "invalid slice: the slice has 65 hollow features; at most 64: split the slice"
     );
     // A valid slice too fine for the planner's buffers is refused, not truncated.
     let f = parse(&slice(
@@ -191,7 +194,7 @@ fn capacity_limits_are_errors() {
     .unwrap();
     let mut planner = Box::new(hollowpath::Planner::new());
     match planner.plan(&f.slice) {
-        Err(hollowpath::Error::Capacity { .. }) => {}
+        Err(hollowpath::Error::Capacity { .. } | hollowpath::Error::SliceTooLarge { .. }) => {}
         other => panic!(
             "expected a capacity error, got {:?}",
             other.map(|p| p.mcls.len())
@@ -309,7 +312,13 @@ fn a_closed_contour_of_the_vertex_limit_fits() {
         })
         .collect();
     ring.push(ring[0].clone());
-    let f = parse(&slice(&format!("[{}]", ring.join(",")), &[SMALL], "")).unwrap();
+    // Not simplified (a big contour would be, within simplify_tolerance, before planning).
+    let f = parse(&slice(
+        &format!("[{}]", ring.join(",")),
+        &[SMALL],
+        r#""simplify_tolerance": 0"#,
+    ))
+    .unwrap();
     assert_eq!(f.slice.wall().points().len(), n);
 }
 

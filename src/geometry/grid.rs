@@ -23,29 +23,70 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The grid with spacing at least `h_min` (> 0) covering the box `lo..hi` with one spare
-    /// node all round and at most `max_nodes` nodes, centred on the box.
-    pub fn covering(lo: Point, hi: Point, h_min: f32, max_nodes: usize) -> Grid {
-        let (w, ht) = (hi.x - lo.x, hi.y - lo.y);
+    /// The spacing rule: from `h_min` (> 0), coarsened in steps of 3 % while the grid over the
+    /// box `lo..hi` would have more than `budget` nodes, but never beyond `h_max` (the last
+    /// step not beyond it is kept, however many nodes it needs). A function of the box and
+    /// the arguments only: a capacity decides whether the grid is accepted, not its spacing.
+    pub fn spacing(lo: Point, hi: Point, h_min: f32, budget: usize, h_max: f32) -> f32 {
         let mut h = h_min;
         loop {
-            // Counted in f32 first: no integer overflow, the same on 32- and 64-bit targets.
-            let (fx, fy) = (libm::ceilf(w / h) + 3.0, libm::ceilf(ht / h) + 3.0);
-            if fx.is_nan() || fy.is_nan() || fx * fy > max_nodes as f32 {
-                h *= 1.03;
-                continue;
+            if Self::nodes(lo, hi, h).is_some_and(|n| n <= budget as f32) {
+                return h;
             }
-            let (nx, ny) = (fx as usize, fy as usize);
-            if nx * ny <= max_nodes {
-                let origin = Point::new(
-                    (lo.x + hi.x) * 0.5 - (nx - 1) as f32 * h * 0.5,
-                    (lo.y + hi.y) * 0.5 - (ny - 1) as f32 * h * 0.5,
-                );
-                return Grid { origin, h, nx, ny };
+            let next = h * 1.03;
+            if next.is_nan() || next > h_max || h_max.is_nan() {
+                return h;
             }
-            h *= 1.03;
+            h = next;
         }
     }
+
+    /// Nodes of the grid `h` apart over the box `lo..hi` with one spare node all round, counted
+    /// in f32 (no integer overflow, the same on 32- and 64-bit targets); `None` if not finite.
+    fn nodes(lo: Point, hi: Point, h: f32) -> Option<f32> {
+        let (fx, fy) = Self::counts(lo, hi, h);
+        let n = fx * fy;
+        n.is_finite().then_some(n)
+    }
+
+    fn counts(lo: Point, hi: Point, h: f32) -> (f32, f32) {
+        (
+            libm::ceilf((hi.x - lo.x) / h) + 3.0,
+            libm::ceilf((hi.y - lo.y) / h) + 3.0,
+        )
+    }
+
+    /// The grid `h` apart covering the box `lo..hi` with one spare node all round, centred on
+    /// the box; `None` if it would have more than `max_nodes` nodes.
+    ///
+    /// ```
+    /// use hollowpath::geometry::{Grid, Point};
+    /// let (lo, hi) = (Point::new(0.0, 0.0), Point::new(10.0, 5.0));
+    /// let g = Grid::with_spacing(lo, hi, 1.0, 1000).unwrap();
+    /// assert_eq!((g.nx, g.ny), (13, 8));
+    /// assert!(Grid::with_spacing(lo, hi, 1.0, 100).is_none());
+    /// ```
+    pub fn with_spacing(lo: Point, hi: Point, h: f32, max_nodes: usize) -> Option<Grid> {
+        let (fx, fy) = Self::counts(lo, hi, h);
+        if !Self::nodes(lo, hi, h).is_some_and(|n| n <= max_nodes as f32) {
+            return None;
+        }
+        let (nx, ny) = (fx as usize, fy as usize);
+        if nx * ny > max_nodes {
+            return None;
+        }
+        let origin = Point::new(
+            (lo.x + hi.x) * 0.5 - (nx - 1) as f32 * h * 0.5,
+            (lo.y + hi.y) * 0.5 - (ny - 1) as f32 * h * 0.5,
+        );
+        Some(Grid { origin, h, nx, ny })
+    }
+
+    /// The largest square (side, mm) a grid `h` apart with at most `max_nodes` nodes covers.
+    pub fn square_side(h: f32, max_nodes: usize) -> f32 {
+        (libm::floorf(libm::sqrtf(max_nodes as f32)) - 3.0).max(0.0) * h
+    }
+
     /// Number of nodes.
     pub fn len(&self) -> usize {
         self.nx * self.ny

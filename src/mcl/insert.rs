@@ -21,6 +21,8 @@ use crate::{Error, FeatureId, Limit, Slice};
 
 /// Largest distance between the far ends of neighbouring halves, in road widths.
 const MAX_END_GAP_PER_ROAD: f32 = 1.9;
+// `Half::depth` is a `u8`.
+const _: () = assert!(MAX_REFINE_DEPTH <= u8::MAX as u32);
 /// The least gap between two neighbouring starts a half is inserted into, in narrowest roads
 /// ([`min_width`](crate::Settings::min_width)). Halves from starts much closer than the
 /// narrowest road run side by side for a stretch before the field parts them, and roads along
@@ -116,11 +118,11 @@ pub fn insert(
 }
 
 /// Indices of the halves of hole `i`, sorted by their start parameter.
-pub fn sorted_halves(halves: &[Half], i: usize) -> Vec<u16, MAX_HALVES> {
+pub fn sorted_halves(halves: &Vec<Half, MAX_HALVES>, i: usize) -> Vec<u16, MAX_HALVES> {
     let mut order: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         if h.hole as usize == i && h.alive {
-            // At most MAX_HALVES halves exist.
+            // Cannot fail: at most one per half, and `halves` has the same capacity.
             let _ = order.push(k as u16);
         }
     }

@@ -20,7 +20,7 @@
 use heapless::Vec;
 
 use crate::cells::{away_from_hole, onto_bisector, Cells};
-use crate::config::{MAX_HALVES, MCL_POINTS};
+use crate::config::{HALF_POINTS, MAX_HALVES, MCL_POINTS};
 use crate::geometry::{polyline, Point};
 use crate::mcl::{Half, HalfEnd};
 use crate::plan::PlanStats;
@@ -114,7 +114,7 @@ pub fn match_all(
                 settings.w_n,
                 settings.w_d,
             );
-            // At most MAX_HALVES candidates exist.
+            // Cannot fail: at most one candidate per half, and `halves` has the same capacity.
             let _ = cands.push(Candidate {
                 half: idx as u16,
                 side_a,
@@ -138,6 +138,7 @@ pub fn match_all(
             // Candidates of the other cell, nearest first along the bisector.
             let mut chosen = None;
             let mut tried: Vec<bool, MAX_HALVES> = Vec::new();
+            // Cannot fail: `cands` has the same capacity.
             let _ = tried.resize(cands.len(), false);
             loop {
                 let mut near: Option<usize> = None;
@@ -179,6 +180,7 @@ pub fn match_all(
                 );
                 if try_join(halves, me.half as usize, other.half as usize, pstar) {
                     chosen = Some(c);
+                    // Cannot fail: a match uses up two candidates (of the same capacity).
                     let _ = matches.push(Match { ua, ub, ustar });
                     let (x, y) = (me.half as usize, other.half as usize);
                     halves[x].on_bisector = Some((k as u8, ustar));
@@ -254,6 +256,8 @@ pub(crate) fn joined_points(
     first: usize,
     second: Option<usize>,
 ) -> Vec<Point, MCL_POINTS> {
+    // Cannot fail: two halves of at most HALF_POINTS points, less the shared joint.
+    const _: () = assert!(2 * HALF_POINTS - 1 <= MCL_POINTS);
     let mut out: Vec<Point, MCL_POINTS> = Vec::new();
     for &p in halves[first].points.iter() {
         let _ = out.push(p);

@@ -21,7 +21,7 @@ use crate::plan::PlanStats;
 use crate::Slice;
 
 /// One end: the half that carries it (the lower index of a pair).
-fn ends(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
+fn ends(halves: &Vec<Half, MAX_HALVES>) -> Vec<u16, MAX_HALVES> {
     let mut out: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         let carrier = match h.partner {
@@ -29,6 +29,7 @@ fn ends(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
             None => h.end == HalfEnd::Wall,
         };
         if h.alive && carrier {
+            // Cannot fail: at most one per half, and `halves` has the same capacity.
             let _ = out.push(k as u16);
         }
     }
@@ -36,8 +37,9 @@ fn ends(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
 }
 
 /// For every half, the halves before and after it around its hole (by start parameter).
-fn ring_neighbours(halves: &[Half], holes: usize) -> Vec<(u16, u16), MAX_HALVES> {
+fn ring_neighbours(halves: &Vec<Half, MAX_HALVES>, holes: usize) -> Vec<(u16, u16), MAX_HALVES> {
     let mut out: Vec<(u16, u16), MAX_HALVES> = Vec::new();
+    // Cannot fail: `halves` has the same capacity.
     let _ = out.resize(halves.len(), (0, 0));
     for i in 0..holes {
         let order = sorted_halves(halves, i);
@@ -65,6 +67,7 @@ pub fn relax(
         let list = ends(halves);
         let mut steps: Vec<Point, MAX_HALVES> = Vec::new();
         for &e in list.iter() {
+            // Cannot fail: one step per end, and `list` has the same capacity.
             let _ = steps.push(relax_step(halves, &ring, &list, e as usize, spacing));
         }
         let mut moved = false;

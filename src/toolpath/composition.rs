@@ -52,6 +52,8 @@ pub fn along(a: &Material, b: &Material, s: f32, len: f32) -> Material {
 /// parametric distance along that MCL. Keeps each MCL's bounding box so far MCLs are skipped.
 ///
 /// ```
+/// # // The host build's capacities take megabytes: run on a large stack.
+/// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
 /// # use hollowpath::{Feature, FeatureId, Planner, Settings, Slice, geometry::Point};
 /// # use hollowpath::toolpath::composition::BlendedField;
 /// # let circle = |r: f32, n: usize| -> Vec<Point> {
@@ -66,6 +68,7 @@ pub fn along(a: &Material, b: &Material, s: f32, len: f32) -> Material {
 /// // Half way between the hole and the wall the two materials are blended about evenly.
 /// let m = field.at(Point::new(6.0, 0.0)).unwrap();
 /// assert!((m[0] - 0.5).abs() < 0.05 && (m[1] - 0.5).abs() < 0.05);
+/// # }).unwrap().join().unwrap();
 /// ```
 pub struct BlendedField<'a> {
     slice: &'a Slice,
@@ -78,7 +81,7 @@ impl<'a> BlendedField<'a> {
     pub fn new(slice: &'a Slice, plan: &'a Plan) -> BlendedField<'a> {
         let mut boxes = heapless::Vec::new();
         for m in plan.mcls.iter() {
-            // One box per MCL; capacities match.
+            // Cannot fail: one box per MCL, and `plan.mcls` has the same capacity.
             let _ = boxes.push(polyline::bbox(&plan.points(m)));
         }
         BlendedField { slice, plan, boxes }

@@ -26,7 +26,7 @@
 
 use heapless::Vec;
 
-use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
+use crate::config::{CONTOUR_POINTS, GRID_NODES, GRID_SPACING_NODES, MAX_LOOPS, MAX_SITES};
 use crate::geometry::{polygon, Grid, Point};
 use crate::toolpath::composition::BlendedField;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -123,11 +123,15 @@ struct Frame {
 }
 
 const NONE: u16 = u16::MAX;
+// A loop's start and length in `points` are `u16`.
+const _: () = assert!(CONTOUR_POINTS <= u16::MAX as usize);
 
 /// The offset spiral's working memory (about 200 KiB: the distance grid and the loops), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
 ///
 /// ```
+/// # // The host build's capacities take megabytes: run on a large stack.
+/// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
 /// use hollowpath::geometry::Point;
 /// use hollowpath::toolpath::offset::OffsetSpiral;
 /// use hollowpath::toolpath::Vertex;
@@ -148,6 +152,7 @@ const NONE: u16 = u16::MAX;
 /// // One road: the first vertex is reached by travel, every later move deposits.
 /// assert!(path[1..].iter().all(|v| v.deposit));
 /// assert_eq!(stats.jumps, 0);
+/// # }).unwrap().join().unwrap();
 /// ```
 pub struct OffsetSpiral {
     grid: Grid,
@@ -281,6 +286,8 @@ fn widened(
     }
     if ridge >= w {
         // The next turn crosses the ray a road width out: widen only if it was left out.
+        // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
+        // finest road) would only be clipped, never wrapped.
         let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16;
         if laid(p + n * w, level + 1) {
             return (p, w);
@@ -384,10 +391,22 @@ impl OffsetSpiral {
     fn sample(&mut self, slice: &Slice) -> Result<(), Error> {
         let w = slice.settings().road_width;
         let (lo, hi) = slice.wall().bbox();
-        self.grid = Grid::covering(lo, hi, 0.5 * w, GRID_NODES);
-        if self.grid.h > crate::config::MAX_GRID_SPACING_PER_ROAD * w {
-            return Err(capacity(Limit::GridNodes));
-        }
+        // As the field's grid: the spacing from the slice and the road only, the capacity
+        // only decides whether it fits.
+        let h = Grid::spacing(
+            lo,
+            hi,
+            0.5 * w,
+            GRID_SPACING_NODES,
+            crate::config::MAX_GRID_SPACING_PER_ROAD * w,
+        );
+        self.grid = Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
+            width: hi.x - lo.x,
+            height: hi.y - lo.y,
+            road_width: w,
+            holds: Grid::square_side(h, GRID_NODES),
+            spiral: true,
+        })?;
         self.d.clear();
         self.marks.clear();
         for k in 0..self.grid.len() {
@@ -797,6 +816,7 @@ impl OffsetSpiral {
         stats: &mut OffsetStats,
     ) -> Result<(), Error> {
         self.queue.clear();
+        // Cannot fail: the queue was just emptied.
         let _ = self.queue.push(start as u16);
         let mut head = 0;
         while head < self.queue.len() {
@@ -1018,6 +1038,7 @@ impl OffsetSpiral {
                 self.vertex(slice, &field, self.at(root, s0), false),
             )?;
             self.stack.clear();
+            // Cannot fail: the stack was just emptied.
             let _ = self.stack.push(Frame {
                 lp: root as u16,
                 pos: s0,

@@ -16,6 +16,8 @@ const MAX_PIECE: f32 = 1.0;
 const MAX_LINES: usize = 512;
 /// Most runs on one line.
 const MAX_RUNS: usize = 16;
+// Line indices are stored as `u16`.
+const _: () = assert!(MAX_LINES <= u16::MAX as usize);
 
 /// Writes the raster layer `layer` (its index sets the line angle) into `sink`.
 pub fn raster(
@@ -106,6 +108,7 @@ pub fn raster(
     // Link runs greedily: from the current end to the nearest free run end; deposit the link
     // when it is short and stays in the region, else travel.
     let mut used: heapless::Vec<bool, { MAX_LINES * 4 }> = heapless::Vec::new();
+    // Cannot fail: `runs` has the same capacity.
     let _ = used.resize(runs.len(), false);
     let point_of = |r: &(u16, f32, f32), t: f32| across * (a0 + (r.0 as f32 + 0.5) * w) + dir * t;
     let mut here: Option<Point> = sink.last_vertex().map(|v| v.at);

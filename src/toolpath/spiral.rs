@@ -88,6 +88,7 @@ fn spokes(
         } else {
             (len - half_width).max(0.0)
         };
+        // Cannot fail: one spoke per half in `order`, of the same capacity.
         let _ = out.push(Spoke {
             half: h,
             mcl: k as u16,
@@ -159,7 +160,7 @@ pub fn spiral(
             _ => libm::roundf(mean / w).max(1.0),
         } as usize;
         if pos == 0 {
-            stats.turns = turns as u16;
+            stats.turns = turns.min(u16::MAX as usize) as u16;
         }
         let total = turns * n + extra;
         for v in 0..=total {
@@ -238,8 +239,15 @@ pub fn spiral(
     Ok(stats)
 }
 
+/// Cells up to which the search for a linked order is exhaustive; beyond, it gives up after
+/// [`SEARCH_STEPS`] steps (the search is exponential in the cells).
+const EXHAUSTIVE_CELLS: usize = 8;
+/// Steps of the search for a linked order of more than [`EXHAUSTIVE_CELLS`] cells.
+const SEARCH_STEPS: u32 = 200_000;
+
 /// An order of the cells along which consecutive cells are linked, if one exists (depth-first
-/// search for a Hamiltonian path, at most eight cells); else a greedy order.
+/// search for a Hamiltonian path: exhaustive up to eight cells, at most [`SEARCH_STEPS`] steps
+/// beyond); else the cells in index order.
 fn cell_order(
     holes: usize,
     link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
@@ -249,16 +257,22 @@ fn cell_order(
         used: &mut [bool; MAX_HOLES],
         holes: usize,
         link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
+        budget: &mut u32,
     ) -> bool {
         if path.len() == holes {
             return true;
         }
+        if *budget == 0 {
+            return false;
+        }
+        *budget -= 1;
         let last = *path.last().unwrap_or(&0) as usize;
         for c in 0..holes {
             if !used[c] && link[last][c].is_some() {
                 used[c] = true;
+                // Cannot fail: each of the `holes <= MAX_HOLES` cells is used once.
                 let _ = path.push(c as u8);
-                if extend(path, used, holes, link) {
+                if extend(path, used, holes, link, budget) {
                     return true;
                 }
                 path.pop();
@@ -267,12 +281,21 @@ fn cell_order(
         }
         false
     }
+    let mut budget = if holes <= EXHAUSTIVE_CELLS {
+        u32::MAX
+    } else {
+        SEARCH_STEPS
+    };
     for first in 0..holes {
+        if budget == 0 {
+            break;
+        }
         let mut path: Vec<u8, MAX_HOLES> = Vec::new();
         let mut used = [false; MAX_HOLES];
         used[first] = true;
+        // Cannot fail: the path was just created.
         let _ = path.push(first as u8);
-        if extend(&mut path, &mut used, holes, link) {
+        if extend(&mut path, &mut used, holes, link, &mut budget) {
             return path;
         }
     }

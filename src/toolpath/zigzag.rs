@@ -13,7 +13,7 @@
 
 use heapless::Vec;
 
-use crate::config::MAX_MCLS;
+use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::geometry::{polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::{along, mcl_end_materials};
@@ -21,6 +21,12 @@ use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice, Target};
 
 const ENDS: usize = 2 * MAX_MCLS;
+/// Keep-out curves: one per hole, then the wall's.
+const CURVES: usize = MAX_HOLES + 1;
+// End ids, curve ranges and union-find parents are `u16`, with `NONE` (`u16::MAX`) spare;
+// curve ids (`holes` for the wall) are `u8`.
+const _: () = assert!(ENDS < u16::MAX as usize);
+const _: () = assert!(CURVES <= u8::MAX as usize);
 /// How far inside the material every road's edge stays, mm: roads along a keep-out curve are
 /// this much narrower than a road each side, so the chords between the curve's points (whose
 /// sagitta cuts a few µm into the keep-out band) do not reach into a feature.
@@ -30,6 +36,10 @@ const EDGE_MARGIN: f32 = 3e-3;
 /// width follows the clearance there instead of tapering over the whole move.
 const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
 const NONE: u16 = u16::MAX;
+/// Up to this many curves with an even number of ends, every combination of their pairings
+/// is tried (every slice of up to 8 holes); beyond, pairings are improved one curve at a time.
+const EXHAUSTIVE_PAIRINGS: usize = 9;
+const _: () = assert!(EXHAUSTIVE_PAIRINGS < 32);
 
 /// Counters of a zigzag layer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,7 +78,7 @@ struct Ends {
     /// Where each end stands in `order`, counted from the start of its curve's range.
     slot: [u16; ENDS],
     /// For each curve, its range in `order`.
-    ranges: Vec<(u16, u16), 9>,
+    ranges: Vec<(u16, u16), CURVES>,
     /// The arc partner of each end (NONE if unpaired).
     arc: [u16; ENDS],
     count: usize,
@@ -91,10 +101,10 @@ fn union(parent: &mut [u16], a: u16, b: u16) {
 }
 
 impl Ends {
-    fn new(slice: &Slice, plan: &Plan, curves: &[KeepOut<'_>], mcls: &[u16]) -> Ends {
+    fn new(slice: &Slice, plan: &Plan, curves: &[KeepOut<'_>], mcls: &Vec<u16, MAX_MCLS>) -> Ends {
         let holes = slice.holes().len();
         let mut e = Ends {
-            mcls: Vec::from_slice(mcls).unwrap_or_default(),
+            mcls: mcls.clone(),
             curve: [0; ENDS],
             param: [0.0; ENDS],
             order: Vec::new(),
@@ -120,6 +130,7 @@ impl Ends {
             }
         }
         for id in 0..e.count as u16 {
+            // Cannot fail: two ends per MCL, at most ENDS.
             let _ = e.order.push(id);
         }
         let (curve, param) = (&e.curve, &e.param);
@@ -138,6 +149,7 @@ impl Ends {
             for k in start..end {
                 e.slot[e.order[k] as usize] = (k - start) as u16;
             }
+            // Cannot fail: one range per curve, at most CURVES.
             let _ = e.ranges.push((start as u16, end as u16));
             start = end;
         }
@@ -184,7 +196,8 @@ impl Ends {
 pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
     let half = 0.5 * slice.settings().road_width;
     let holes = slice.holes().len();
-    let mut curves: Vec<KeepOut<'_>, 9> = Vec::new();
+    // Cannot fail: a slice holds at most MAX_HOLES holes, and one wall.
+    let mut curves: Vec<KeepOut<'_>, CURVES> = Vec::new();
     for h in slice.holes() {
         let _ = curves.push(KeepOut::new(h, half, Side::Outside));
     }
@@ -194,7 +207,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
     // curves (both turn even) until at most two curves are odd.
     let mut active: Vec<u16, MAX_MCLS> = (0..plan.mcls.len() as u16).collect();
     loop {
-        let mut count = [0u16; 9];
+        let mut count = [0u16; CURVES];
         for &k in active.iter() {
             let (a, b) = curve_pair(plan, k as usize, holes);
             count[a] += 1;
@@ -233,7 +246,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
 
     // Odd curves: leave unpaired the end after the longest gap (just after a branch point,
     // where the paper starts). Even curves: search both pairings of each.
-    let mut even: Vec<usize, 9> = Vec::new();
+    let mut even: Vec<usize, CURVES> = Vec::new();
     for c in 0..=holes {
         let (a, b) = ends.ranges[c];
         let n = (b - a) as usize;
@@ -252,24 +265,48 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
             }
             ends.pair_curve(c, best.0 + 1);
         } else {
+            // Cannot fail: at most one entry per curve.
             let _ = even.push(c);
             ends.pair_curve(c, 0);
         }
     }
-    let mut best = (u16::MAX, 0u32);
-    for mask in 0..(1u32 << even.len()) {
+    stats.pieces_paired = if even.len() <= EXHAUSTIVE_PAIRINGS {
+        let mut best = (u16::MAX, 0u32);
+        for mask in 0..(1u32 << even.len()) {
+            for (bit, &c) in even.iter().enumerate() {
+                ends.pair_curve(c, ((mask >> bit) & 1) as usize);
+            }
+            let p = ends.pieces(&mut parent);
+            if p < best.0 {
+                best = (p, mask);
+            }
+        }
         for (bit, &c) in even.iter().enumerate() {
-            ends.pair_curve(c, ((mask >> bit) & 1) as usize);
+            ends.pair_curve(c, ((best.1 >> bit) & 1) as usize);
         }
-        let p = ends.pieces(&mut parent);
-        if p < best.0 {
-            best = (p, mask);
+        best.0
+    } else {
+        // Too many curves to try every combination: flip one curve's pairing at a time while
+        // that leaves fewer pieces.
+        let mut best = ends.pieces(&mut parent);
+        let mut choice = [0usize; CURVES];
+        let mut improved = true;
+        while improved {
+            improved = false;
+            for (i, &c) in even.iter().enumerate() {
+                ends.pair_curve(c, 1 - choice[i]);
+                let p = ends.pieces(&mut parent);
+                if p < best {
+                    best = p;
+                    choice[i] = 1 - choice[i];
+                    improved = true;
+                } else {
+                    ends.pair_curve(c, choice[i]);
+                }
+            }
         }
-    }
-    for (bit, &c) in even.iter().enumerate() {
-        ends.pair_curve(c, ((best.1 >> bit) & 1) as usize);
-    }
-    stats.pieces_paired = best.0;
+        best
+    };
 
     // Splice loops lying side by side on a curve: arcs (a, b) and (c, d) with b, c adjacent
     // become (a, d) and (b, c).
@@ -522,7 +559,12 @@ fn stroke(
         [1.0f32, 0.75, 0.5, 0.25, 0.0]
             .iter()
             .map(|f| q + left_n * (sign * f * reach))
-            .find(|&e| slice.fits(e, ws, 1e-4) && !slice.segment_crosses_feature(q, e))
+            .find(|&e| {
+                // Room for the stroke, and off every keep-out curve (each feature's own
+                // material's place).
+                slice.clearance(e) >= 0.5 * ws.max(settings.road_width) + 2.0 * EDGE_MARGIN
+                    && !slice.segment_crosses_feature(q, e)
+            })
             .unwrap_or(q)
     };
     let sides = [
@@ -616,6 +658,7 @@ fn emit_mcl(
     let len = cum[n - 1];
     // The MCL's vertices in walking order, with extra ones near both ends (`END_STEPS`).
     let order = |step: usize| if forward { step } else { n - 1 - step };
+    // Cannot fail: at most `END_STEPS.len()` extras before and after one vertex.
     let mut stops: Vec<(Point, Point, f32, bool), { 2 * END_STEPS.len() + 2 }> = Vec::new();
     // Extra stops on the move from end vertex `e` toward vertex `q`, nearest the end first;
     // on a move that is both first and last, each end's stay on its own half.
@@ -881,6 +924,7 @@ fn emit_arc(
     let w = w - 2.0 * EDGE_MARGIN;
     // The curve's vertices strictly between the two MCL ends (the MCLs carry the ends), with
     // their arc lengths from `s0`.
+    // Cannot fail: `arc` gives both ends and at most every vertex in between.
     let mut inner: Vec<(Point, f32), { crate::config::MAX_VERTICES + 2 }> = Vec::new();
     curve.arc(s0, s1, forward, |p, s| {
         let along = if forward {
