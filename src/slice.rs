@@ -78,19 +78,7 @@ impl Feature {
         }
         let mut pts: Vec<Point, MAX_VERTICES> = Vec::new();
         for (k, &p) in points.iter().enumerate() {
-            let vertex = k.min(u16::MAX as usize) as u16;
-            if !p.is_finite() {
-                return Err(Error::NonFinite {
-                    feature: id,
-                    vertex,
-                });
-            }
-            if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
-                return Err(Error::OutOfRange {
-                    feature: id,
-                    vertex,
-                });
-            }
+            check_coordinate(id, k, p)?;
             if pts.last() == Some(&p) {
                 continue;
             }
@@ -193,19 +181,7 @@ impl Feature {
             return Feature::new(id, points, material);
         }
         for (k, &p) in points.iter().enumerate() {
-            let vertex = k.min(u16::MAX as usize) as u16;
-            if !p.is_finite() {
-                return Err(Error::NonFinite {
-                    feature: id,
-                    vertex,
-                });
-            }
-            if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
-                return Err(Error::OutOfRange {
-                    feature: id,
-                    vertex,
-                });
-            }
+            check_coordinate(id, k, p)?;
         }
         let mut n = points.len();
         if n > 1 && points[n - 1] == points[0] {
@@ -369,6 +345,18 @@ fn distinct_consecutive(points: &[Point]) -> u32 {
         .count();
     let closing = n > 1 && points[n - 1] == points[0];
     (kept - usize::from(closing)).min(u32::MAX as usize) as u32
+}
+
+/// A vertex's coordinates: finite, and within [`config::MAX_COORD_MM`].
+fn check_coordinate(feature: FeatureId, k: usize, p: Point) -> Result<(), Error> {
+    let vertex = k.min(u16::MAX as usize) as u16;
+    if !p.is_finite() {
+        return Err(Error::NonFinite { feature, vertex });
+    }
+    if libm::fabsf(p.x) > config::MAX_COORD_MM || libm::fabsf(p.y) > config::MAX_COORD_MM {
+        return Err(Error::OutOfRange { feature, vertex });
+    }
+    Ok(())
 }
 
 fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {

@@ -112,18 +112,23 @@ fn raster_baseline_is_measured_the_same_way() {
     );
 }
 
+/// The two default layers of `slice` (the zigzag, then the offset spiral), as G-code takes them.
+fn default_layers(slice: &hollowpath::Slice) -> Vec<(Pattern, Vec<hollowpath::toolpath::Vertex>)> {
+    let planner = host_sim::plan(slice).unwrap();
+    let plan = planner.last_plan();
+    (0..2)
+        .map(|k| {
+            let l = layer(slice, plan, Fill::Offset, k).unwrap();
+            (l.pattern, l.path)
+        })
+        .collect()
+}
+
 #[test]
 fn gcode_of_real_layers_reads_back_as_the_same_path() {
     let (_, text) = REFERENCE_SLICES[1];
     let slice = slice_file::parse(text).unwrap().slice;
-    let planner = host_sim::plan(&slice).unwrap();
-    let plan = planner.last_plan();
-    let layers: Vec<_> = (0..2)
-        .map(|k| {
-            let l = layer(&slice, plan, Fill::Offset, k).unwrap();
-            (l.pattern, l.path)
-        })
-        .collect();
+    let layers = default_layers(&slice);
     let text = gcode::export(&slice, &layers, 10.0, 40.0);
     let back = gcode::parse(&text).unwrap();
     assert_eq!(back.len(), 2);
@@ -198,14 +203,7 @@ fn metrics_agree_with_the_exported_gcode_as_printed() {
     // exported file read back (one width per move from its E) gives the same figures.
     for (name, text) in REFERENCE_SLICES {
         let slice = slice_file::parse(text).unwrap().slice;
-        let planner = host_sim::plan(&slice).unwrap();
-        let plan = planner.last_plan();
-        let layers: Vec<_> = (0..2)
-            .map(|k| {
-                let l = layer(&slice, plan, Fill::Offset, k).unwrap();
-                (l.pattern, l.path)
-            })
-            .collect();
+        let layers = default_layers(&slice);
         let back = gcode::parse(&gcode::export(&slice, &layers, 10.0, 40.0)).unwrap();
         let field = |_p: hollowpath::geometry::Point| None;
         let mut meter = host_sim::metrics::Meter::new(&slice, Default::default());
