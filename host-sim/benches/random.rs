@@ -75,6 +75,11 @@ fn main() {
     if std::env::args().skip(1).any(|a| !a.starts_with("--")) {
         return;
     }
+    // Slices of the host build's capacities are megabytes each.
+    host_sim::run_on_large_stack(bench);
+}
+
+fn bench() {
     let count = env("HOLLOWPATH_SLICES", 200usize);
     let seed = env("HOLLOWPATH_SEED", 1u64);
     let how = Draw {
