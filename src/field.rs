@@ -102,20 +102,7 @@ impl Field {
         self.boundary.clear();
         // The spacing depends on the slice and the road only; the capacity only decides
         // whether the grid fits.
-        let h = Grid::spacing(
-            lo,
-            hi,
-            w * GRID_SPACING_PER_ROAD,
-            GRID_SPACING_NODES,
-            MAX_GRID_SPACING_PER_ROAD * w,
-        );
-        self.grid = Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
-            width: hi.x - lo.x,
-            height: hi.y - lo.y,
-            road_width: w,
-            holds: Grid::square_side(h, GRID_NODES),
-            spiral: false,
-        })?;
+        self.grid = fitted_grid(lo, hi, w * GRID_SPACING_PER_ROAD, w, false)?;
         let half = 0.5 * w;
         for k in 0..self.grid.len() {
             let p = self.grid.node(k);
@@ -310,4 +297,31 @@ fn boundary_levels(
         let j = (l & !KEEP_OUT) as usize;
         (hole(j, p) - hole(i, p), hole(j, q) - hole(i, q), true)
     }
+}
+
+/// The grid over the box `lo..hi` (a slice's wall) at the spacing [`Grid::spacing`] picks from
+/// `preferred` for a slice of road width `w` (from the slice and the road alone, so host and
+/// MCU grid a slice alike), or the error saying the slice is too large for [`GRID_NODES`]
+/// (`spiral`: the offset spiral's grid).
+pub(crate) fn fitted_grid(
+    lo: Point,
+    hi: Point,
+    preferred: f32,
+    w: f32,
+    spiral: bool,
+) -> Result<Grid, Error> {
+    let h = Grid::spacing(
+        lo,
+        hi,
+        preferred,
+        GRID_SPACING_NODES,
+        MAX_GRID_SPACING_PER_ROAD * w,
+    );
+    Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
+        width: hi.x - lo.x,
+        height: hi.y - lo.y,
+        road_width: w,
+        holds: Grid::square_side(h, GRID_NODES),
+        spiral,
+    })
 }

@@ -26,7 +26,7 @@
 
 use heapless::Vec;
 
-use crate::config::{CONTOUR_POINTS, GRID_NODES, GRID_SPACING_NODES, MAX_LOOPS, MAX_SITES};
+use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
 use crate::geometry::{polygon, Grid, Point};
 use crate::toolpath::composition::BlendedField;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -393,20 +393,7 @@ impl OffsetSpiral {
         let (lo, hi) = slice.wall().bbox();
         // As the field's grid: the spacing from the slice and the road only, the capacity
         // only decides whether it fits.
-        let h = Grid::spacing(
-            lo,
-            hi,
-            0.5 * w,
-            GRID_SPACING_NODES,
-            crate::config::MAX_GRID_SPACING_PER_ROAD * w,
-        );
-        self.grid = Grid::with_spacing(lo, hi, h, GRID_NODES).ok_or(Error::SliceTooLarge {
-            width: hi.x - lo.x,
-            height: hi.y - lo.y,
-            road_width: w,
-            holds: Grid::square_side(h, GRID_NODES),
-            spiral: true,
-        })?;
+        self.grid = crate::field::fitted_grid(lo, hi, 0.5 * w, w, true)?;
         self.d.clear();
         self.marks.clear();
         for k in 0..self.grid.len() {
