@@ -437,17 +437,21 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
     out
 }
 
+/// The band a road along an MCL owns at a point ([`band_at`]): the unit normal to the left of
+/// the MCL, and the distances to the neighbouring MCL on the left and on the right.
+type Band = (Point, f32, f32);
+
+/// Whether a band is wider than the widest road
+/// ([`max_width`](crate::Settings::max_width)): there the road meanders ([`meander`]).
+fn too_wide(slice: &Slice, band: Option<Band>) -> bool {
+    band.is_some_and(|(_, l, r)| 0.5 * (l + r) > slice.settings().max_width)
+}
+
 /// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
 /// the MCL and the distances to the nearest neighbouring MCL on the left and on the right (a
 /// side without a neighbour mirrors the other); the road owns half of each gap. `None` where
 /// `dir` is degenerate.
-fn band_at(
-    slice: &Slice,
-    plan: &Plan,
-    p: Point,
-    dir: Point,
-    near: &[u16; 4],
-) -> Option<(Point, f32, f32)> {
+fn band_at(slice: &Slice, plan: &Plan, p: Point, dir: Point, near: &[u16; 4]) -> Option<Band> {
     let w = slice.settings().road_width;
     let len = dir.norm();
     if len < 1e-6 {
@@ -545,12 +549,10 @@ fn stroke(
     sink: &mut impl PathSink,
 ) -> Result<bool, Error> {
     let settings = slice.settings();
-    let Some((left_n, left, right)) = band_at(slice, plan, q, dir, near) else {
+    let band = band_at(slice, plan, q, dir, near);
+    let Some((left_n, left, right)) = band.filter(|_| too_wide(slice, band)) else {
         return Ok(false);
     };
-    if 0.5 * (left + right) <= settings.max_width {
-        return Ok(false);
-    }
     let ws = spacing.max(settings.min_width);
     // Each side as far out as the band reaches, pulled back toward the MCL where the
     // stroke would leave the region (the band of an MCL whose neighbour lies beyond a
@@ -591,7 +593,7 @@ fn stroke(
 /// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
 ///
 /// The road covers its share of the gaps to the nearest neighbouring road on either side
-/// (distances `l` and `r`, from `near`'s MCLs): from half-way to the left one to half-way to
+/// (distances `l` and `r` of its band): from half-way to the left one to half-way to
 /// the right one. So it is `(l + r) / 2` wide and its centre lies `(r - l) / 4` toward the
 /// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
 /// in, without gap or overlap. The width stays within the slice's
@@ -599,19 +601,12 @@ fn stroke(
 /// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side (the
 /// shift is left out where it would come nearer a feature than half the narrowest road); the
 /// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
-/// where they are and are at most a road width wide, so nothing spills. `dir` is the MCL's
-/// direction at `p`.
-fn road_at(
-    slice: &Slice,
-    plan: &Plan,
-    p: Point,
-    dir: Point,
-    end: bool,
-    near: &[u16; 4],
-) -> (Point, f32) {
+/// where they are and are at most a road width wide, so nothing spills. `band` is the band
+/// the road owns at `p` ([`band_at`]).
+fn road_at(slice: &Slice, p: Point, end: bool, band: Option<Band>) -> (Point, f32) {
     let settings = slice.settings();
     let w = settings.road_width;
-    let Some((left_n, left, right)) = band_at(slice, plan, p, dir, near) else {
+    let Some((left_n, left, right)) = band else {
         return (p, w);
     };
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
@@ -697,14 +692,12 @@ fn emit_mcl(
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
             // Inside a meander (the last sample before was a stroke, and the band here is
             // wide too) the strokes fill the band: no road along the MCL's middle.
-            if in_meander && !is_end && step != 0 && step + 1 != n {
-                let band = band_at(slice, plan, p, dir, near);
-                if band.is_some_and(|(_, l, r)| 0.5 * (l + r) > slice.settings().max_width) {
-                    continue;
-                }
+            let band = band_at(slice, plan, p, dir, near);
+            if in_meander && !is_end && step != 0 && step + 1 != n && too_wide(slice, band) {
+                continue;
             }
             in_meander = false;
-            let (mut at, mut width) = road_at(slice, plan, p, dir, is_end, near);
+            let (mut at, mut width) = road_at(slice, p, is_end, band);
             // An end into a splice's inner arc lies on its line, a quarter road off the curve.
             let shifted = match step {
                 0 if k == 0 => spliced[0],
