@@ -6,7 +6,8 @@
 //! `cargo bench -p host-sim --bench random` draws 200 slices from seed 1;
 //! `HOLLOWPATH_SLICES=N`, `HOLLOWPATH_SEED=S` and `HOLLOWPATH_MAX_HOLES=H` change that, and
 //! `HOLLOWPATH_DUMP=DIR` writes every slice that misses the bar there as a slice file (its
-//! seed in the name) to plan again with `hollowpath plan`.
+//! seed in the name) to plan again with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
+//! slice's figures per layer there.
 
 use std::sync::Mutex;
 
@@ -158,6 +159,22 @@ fn bench() {
                 o.1, m.starts, m.coverage, m.overfill, m.spill
             );
         }
+    }
+    if let Ok(file) = std::env::var("HOLLOWPATH_CSV") {
+        let mut csv = String::from("seed,layer,starts,coverage,overfill,spill,description\n");
+        for o in &outcomes {
+            for (k, m) in o.2.iter().enumerate() {
+                let row = match m {
+                    Ok(m) => format!(
+                        "{},{k},{},{:.4},{:.4},{:.5}",
+                        o.0, m.starts, m.coverage, m.overfill, m.spill
+                    ),
+                    Err(_) => format!("{},{k},,,,", o.0),
+                };
+                csv.push_str(&format!("{row},\"{}\"\n", o.1));
+            }
+        }
+        std::fs::write(file, csv).unwrap();
     }
     if let Some(dir) = dump {
         std::fs::create_dir_all(&dir).unwrap();

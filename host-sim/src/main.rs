@@ -58,7 +58,8 @@ impl From<SpiralArg> for Fill {
 #[derive(Subcommand)]
 enum Command {
     /// Plan a slice file: DIR/mcls.json and mcls.svg, then per layer layer-K.svg,
-    /// layer-K.png and layer-K.json (the path's vertices), DIR/metrics.json and, with --gcode,
+    /// layer-K.png, layer-K-deposit.png (the deposition: bare ground red, deposited twice
+    /// blue) and layer-K.json (the path's vertices), DIR/metrics.json and, with --gcode,
     /// G-code.
     Plan {
         /// The slice file (JSON, see SLICE_FORMAT.md).
@@ -300,9 +301,12 @@ fn run(
     let px_per_mm = 20.0f32.min((16.0e6 / area).sqrt() as f32);
     let mut meter = Meter::new(slice, Options::with_cell(cell));
     let mut measured: Vec<(String, LayerMetrics)> = Vec::new();
+    // Each layer's deposition map is drawn from the raster right after it is measured.
+    let mut deposits = Vec::new();
     for l in built.iter().chain(baseline.iter()) {
         let m = meter.measure(l.pattern, &l.path, &field_fn);
         measured.push((l.note.clone(), m));
+        deposits.push(preview::deposit_png(meter.raster()));
     }
     for l in &built {
         let vertices: Vec<_> = l
@@ -323,6 +327,9 @@ fn run(
             &out.join(format!("layer-{}.png", l.index)),
             &preview::layer_png(slice, &l.path, px_per_mm),
         )?;
+    }
+    for (l, png) in built.iter().zip(&deposits) {
+        write(&out.join(format!("layer-{}-deposit.png", l.index)), png)?;
     }
     if let Some(b) = &baseline {
         write(
@@ -385,7 +392,7 @@ fn run(
         );
     }
     println!(
-        "wrote {}/mcls.json, mcls.svg, layer-K.svg/png, metrics.json{}",
+        "wrote {}/mcls.json, mcls.svg, layer-K.svg/png, layer-K-deposit.png, metrics.json{}",
         out.display(),
         gcode_path
             .map(|g| format!(", {}", g.display()))

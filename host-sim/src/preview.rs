@@ -269,3 +269,42 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
         .encode_png()
         .expect("encoding an in-memory PNG cannot fail")
 }
+
+/// Colours of [`deposit_png`]: printable ground left bare, covered once, covered twice or
+/// more, deposit in a hollow feature or outside the wall, and the void that stays empty.
+const BARE: [u8; 3] = [0xe0, 0x20, 0x20];
+const ONCE: [u8; 3] = [0xe8, 0xe8, 0xe8];
+const TWICE: [u8; 3] = [0x20, 0x50, 0xd0];
+const SPILT: [u8; 3] = [0x00, 0x00, 0x00];
+const VOID: [u8; 3] = [0xff, 0xff, 0xff];
+
+/// Where the last layer measured on `raster` left ground bare (red), covered it once (grey),
+/// twice or more (blue), and deposited where no material belongs (black), one pixel per
+/// raster cell (north up): the picture of the layer's coverage, overfill and spill
+/// (`metrics.json`). The margin (material within half a road of a feature, which no round
+/// nozzle may reach without spilling) counts only when it is covered twice, as overfill does.
+pub fn deposit_png(raster: &crate::raster::Raster) -> Vec<u8> {
+    use crate::raster::Region;
+    let (nx, ny) = (raster.nx as u32, raster.ny as u32);
+    let mut pixmap = Pixmap::new(nx.max(1), ny.max(1)).expect("picture size is positive");
+    let data = pixmap.data_mut();
+    for j in 0..raster.ny {
+        for i in 0..raster.nx {
+            let k = j * raster.nx + i;
+            let c = match (raster.region[k], raster.count[k]) {
+                (Region::Void, 0) => VOID,
+                (Region::Void, _) => SPILT,
+                (_, n) if n >= 2 => TWICE,
+                (Region::Printable, 0) => BARE,
+                (Region::Margin, 0) => VOID,
+                _ => ONCE,
+            };
+            let row = raster.ny - 1 - j;
+            let o = 4 * (row * raster.nx + i);
+            data[o..o + 4].copy_from_slice(&[c[0], c[1], c[2], 0xff]);
+        }
+    }
+    pixmap
+        .encode_png()
+        .expect("encoding an in-memory PNG cannot fail")
+}

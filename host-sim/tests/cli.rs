@@ -84,8 +84,10 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
     );
     for k in 0..3 {
         assert!(out.join(format!("layer-{k}.svg")).is_file());
-        let png = std::fs::read(out.join(format!("layer-{k}.png"))).unwrap();
-        assert_eq!(&png[1..4], b"PNG");
+        for name in [format!("layer-{k}.png"), format!("layer-{k}-deposit.png")] {
+            let png = std::fs::read(out.join(name)).unwrap();
+            assert_eq!(&png[1..4], b"PNG");
+        }
     }
     let doc = read_json(&out.join("metrics.json"));
     let layers = doc["layers"].as_array().unwrap();

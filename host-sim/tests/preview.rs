@@ -197,3 +197,52 @@ fn an_empty_layer_draws_only_the_slice() {
     let pic = Picture::new(&slice, &[], 5.0);
     assert_eq!(pic.at(0.0, -7.0), [255, 255, 255]);
 }
+
+/// The deposition map counts, pixel by pixel, what `metrics.json` reports: bare printable
+/// ground is red, ground covered twice blue, so their shares of the printable region are the
+/// layer's `1 - coverage` and `overfill`.
+#[test]
+fn the_deposit_map_shows_the_layer_metrics() {
+    use host_sim::layers::{layer, Fill};
+    use host_sim::metrics::{Meter, Options};
+    use host_sim::preview::deposit_png;
+    host_sim::run_on_large_stack(|| {
+        let slice = common::reference("three_holes");
+        let plan = host_sim::plan(&slice).unwrap();
+        let plan = plan.last_plan();
+        let mut meter = Meter::new(&slice, Options::with_cell(0.025));
+        for k in 0..2 {
+            let l = layer(&slice, plan, Fill::Offset, k).unwrap();
+            let m = meter.measure(l.pattern, &l.path, &|_| None);
+            let png = deposit_png(meter.raster());
+            let pixmap = Pixmap::decode_png(&png).expect("the PNG decodes");
+            let raster = meter.raster();
+            assert_eq!(
+                (pixmap.width() as usize, pixmap.height() as usize),
+                (raster.nx, raster.ny)
+            );
+            let count = |c: [u8; 3]| {
+                pixmap
+                    .pixels()
+                    .iter()
+                    .filter(|p| {
+                        let p = p.demultiply();
+                        [p.red(), p.green(), p.blue()] == c
+                    })
+                    .count() as f64
+            };
+            let printable = raster.printable_cells() as f64;
+            let bare = count([0xe0, 0x20, 0x20]) / printable;
+            let twice = count([0x20, 0x50, 0xd0]) / printable;
+            assert!(bare > 0.0 && twice > 0.0, "layer {k}: {bare} {twice}");
+            assert!(
+                (bare - (1.0 - m.coverage)).abs() < 1e-9,
+                "layer {k}: {bare} vs {m:?}"
+            );
+            assert!(
+                (twice - m.overfill).abs() < 1e-9,
+                "layer {k}: {twice} vs {m:?}"
+            );
+        }
+    });
+}
