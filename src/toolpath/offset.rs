@@ -244,7 +244,7 @@ fn widened(
     slice: &Slice,
     p: Point,
     (own, d, n): (usize, f32, Point),
-    laid: impl Fn(Point, u16) -> bool,
+    laid: impl Fn(Point, u16, f32) -> bool,
 ) -> (Point, f32) {
     let w = slice.settings().road_width;
     let holes = slice.holes().len();
@@ -255,7 +255,12 @@ fn widened(
     let n = n * (1.0 / len);
     // The nearest ridge along `n` within reach of the widest road's outer edge.
     let gap = |f: usize, t: f32| feature_distance(slice, f, p + n * t) - d - t;
-    let reach = slice.settings().max_width - 0.5 * w + RIDGE_MARGIN;
+    // The ridge is looked for as far as a turn can be missing: beyond a road width out the
+    // next turn crosses the ray, and the road widens only where that turn was left out (or
+    // never traced: a sliver of a level too thin for the grid near a saddle of `D`). The
+    // widening itself stops at `max_width`, short of a far ridge: a partial fill of a gap
+    // wider than the widest road still covers most of it.
+    let reach = (slice.settings().max_width - 0.5 * w).max(2.0 * w) + RIDGE_MARGIN;
     let mut ridge = reach;
     for f in 0..=holes {
         // The feature's own ridges count too (a non-convex feature's parts face each other):
@@ -286,18 +291,24 @@ fn widened(
         ridge = lo;
     }
     let g = (ridge - 0.5 * w - RIDGE_MARGIN).min(slice.settings().max_width - w);
-    if ridge >= reach || g <= 0.0 {
+    if g <= 0.0 {
         return (p, w);
     }
-    if ridge >= w {
-        // The next turn crosses the ray a road width out: widen only if it was left out.
+    // The next turn crosses the ray a road width out: widen only if it was left out, and
+    // only as far as the widened road keeps off every laid piece of that turn (near a corner
+    // of the next turn, where it meets another feature's turn at the ridge, the traced turn
+    // cuts the corner and passes the ray's point at a distance).
+    let next = if ridge >= w {
         // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
         // finest road) would only be clipped, never wrapped.
-        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16;
-        if laid(p + n * w, level + 1) {
+        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16 + 1;
+        if laid(p + n * w, level, LAID_TOL * w) {
             return (p, w);
         }
-    }
+        Some(level)
+    } else {
+        None
+    };
     // Where the ridge bends toward the road (near a corner where two features' turns meet),
     // the widened road's round edge would cross it sideways onto the other side's road:
     // widen less, or not at all.
@@ -308,9 +319,10 @@ fn widened(
     let mut g = g;
     for _ in 0..WIDEN_TRIES {
         let (c, r) = (p + n * (0.5 * g), 0.5 * (w + g));
-        if EDGE_DIRECTIONS
-            .iter()
-            .all(|&(x, y)| in_cell(c + Point::new(x, y) * r))
+        if next.is_none_or(|level| !laid(c, level, r + 0.5 * w))
+            && EDGE_DIRECTIONS
+                .iter()
+                .all(|&(x, y)| in_cell(c + Point::new(x, y) * r))
         {
             return (c, w + g);
         }
@@ -335,6 +347,9 @@ const EDGE_DIRECTIONS: [(f32, f32); 12] = [
     (0.5, -0.866_025_4),
     (0.866_025_4, -0.5),
 ];
+/// How near (road widths) a laid turn must pass the point a road width out along the distance
+/// gradient for the next turn to count as laid there.
+const LAID_TOL: f32 = 0.1;
 /// How many times a widening that crosses the ridge sideways is halved before it is given up.
 const WIDEN_TRIES: u32 = 3;
 
@@ -917,8 +932,7 @@ impl OffsetSpiral {
 
     /// [`widened`] at `p` (whose nearest feature is `near`), against this layer's laid loops.
     fn widen(&self, slice: &Slice, p: Point, near: (usize, f32, Point)) -> (Point, f32) {
-        let tol = 0.1 * slice.settings().road_width;
-        widened(slice, p, near, |q, level| self.laid_at(q, level, tol))
+        widened(slice, p, near, |q, level, tol| self.laid_at(q, level, tol))
     }
 
     /// The vertex at `p`, with its composition and its road width ([`widened`] at ridges).
