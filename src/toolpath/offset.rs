@@ -35,6 +35,12 @@ use crate::{Error, Limit, Material, Plan, Slice};
 /// How far beyond the keep-out curve the first turn lies, mm: the chords of a turn may cut
 /// that far into it without touching a feature's keep-out band.
 const FIRST_TURN_MARGIN: f32 = 3e-3;
+/// Bisection steps locating a level on a grid edge where Newton steps run off (an edge of
+/// 0.1 mm to 6 nm).
+const EDGE_BISECTIONS: u32 = 24;
+/// How many times a chord between two traced points of a turn is halved, at most, to keep
+/// it within [`SIMPLIFY_TOL`] of the turn (a chord 16 times shorter sags 256 times less).
+const REFINE_DEPTH: u32 = 4;
 /// Largest deviation of a simplified turn from the traced one, mm.
 const SIMPLIFY_TOL: f32 = 2e-3;
 /// Loops shorter than this many road widths are too small to turn in and are left out.
@@ -207,6 +213,52 @@ fn material_of(slice: &Slice, f: usize) -> Material {
 fn distance(slice: &Slice, p: Point) -> (f32, Point, Material) {
     let (f, d, g) = nearest(slice, p);
     (d, g, material_of(slice, f))
+}
+
+/// The distance from `p` to feature `f` (as [`feature_distance`]) and its gradient.
+fn feature_distance_gradient(slice: &Slice, f: usize, p: Point) -> (f32, Point) {
+    match slice.holes().get(f) {
+        Some(h) => {
+            let n = h.nearest(p);
+            (n.distance, n.gradient(p))
+        }
+        None => {
+            let n = slice.wall().nearest(p);
+            (-n.distance, -n.gradient(p))
+        }
+    }
+}
+
+/// Where the level `level` of features `fa` and `fb` meet (the corner of the turn at the
+/// ridge between them), by Newton steps on both distances from `p0`, if the steps converge
+/// within `reach` of `p0` onto a point no other feature is nearer to.
+fn level_corner(
+    slice: &Slice,
+    (fa, fb): (usize, usize),
+    p0: Point,
+    level: f32,
+    reach: f32,
+) -> Option<Point> {
+    let mut p = p0;
+    for _ in 0..8 {
+        let (da, ga) = feature_distance_gradient(slice, fa, p);
+        let (db, gb) = feature_distance_gradient(slice, fb, p);
+        let (ra, rb) = (level - da, level - db);
+        if ra.abs() < 1e-6 && rb.abs() < 1e-6 {
+            break;
+        }
+        // Solve [ga; gb] x = [ra; rb].
+        let det = ga.x * gb.y - ga.y * gb.x;
+        if det.abs() < 1e-3 {
+            return None;
+        }
+        p = p + Point::new((ra * gb.y - rb * ga.y) / det, (ga.x * rb - gb.x * ra) / det);
+        if !p.is_finite() || p.dist(p0) > reach {
+            return None;
+        }
+    }
+    let (f, d, _) = nearest(slice, p);
+    ((f == fa || f == fb) && (d - level).abs() < 1e-5).then_some(p)
 }
 
 /// The distance from `p` to feature `f` (a hole index, or `holes` for the wall), positive in
@@ -496,7 +548,29 @@ impl OffsetSpiral {
         let (a, b) = (node[e as usize], node[(e as usize + 1) % 4]);
         let (da, db) = (self.d[a], self.d[b]);
         let t = ((level - da) / (db - da)).clamp(0.0, 1.0);
-        let p0 = self.grid.node(a).lerp(self.grid.node(b), t);
+        let (na, nb) = (self.grid.node(a), self.grid.node(b));
+        let p0 = na.lerp(nb, t);
+        // Where the steps run off (near a ridge or a peak of D), the level is found on the
+        // grid edge itself by bisection on the exact distance (the nodes' samples straddle
+        // it).
+        self.on_level(slice, p0, level).unwrap_or_else(|| {
+            let below = distance(slice, na).0 < level;
+            let (mut lo, mut hi) = (0.0f32, 1.0f32);
+            for _ in 0..EDGE_BISECTIONS {
+                let mid = 0.5 * (lo + hi);
+                if (distance(slice, na.lerp(nb, mid)).0 < level) == below {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            na.lerp(nb, 0.5 * (lo + hi))
+        })
+    }
+
+    /// The point of the level `level` nearest `p0` by Newton steps along the distance
+    /// gradient, or `None` where the steps run off (near a ridge of `D`).
+    fn on_level(&self, slice: &Slice, p0: Point, level: f32) -> Option<Point> {
         let mut p = p0;
         for _ in 0..4 {
             let (d, g, _) = distance(slice, p);
@@ -506,12 +580,52 @@ impl OffsetSpiral {
                 break;
             }
         }
-        // A step that ran off (near a ridge of D) keeps the interpolated point.
-        if p.dist(p0) > self.grid.h || !p.is_finite() {
-            p0
-        } else {
-            p
+        (p.dist(p0) <= self.grid.h && p.is_finite()).then_some(p)
+    }
+
+    /// Pushes the points of level `level` between the traced points `a` and `b` that keep
+    /// the chords within [`SIMPLIFY_TOL`] of the level: where the grid is coarse for the
+    /// level's curvature (a road a good fraction of the slice wide, whose grid is coarse too)
+    /// the chord between two grid crossings would cut into the turn's clearance, and at a
+    /// corner of the level (where it meets another feature's at a ridge) it would cut the
+    /// corner off.
+    fn refine(
+        &mut self,
+        slice: &Slice,
+        a: Point,
+        b: Point,
+        level: f32,
+        depth: u32,
+    ) -> Result<(), Error> {
+        if depth == 0 {
+            return Ok(());
         }
+        let mid = a.lerp(b, 0.5);
+        // Across a ridge the level has a corner: put it in exactly (the chord across a
+        // corner of the turn would cut it off, and neither end's steps reach it).
+        let (fa, fb) = (nearest(slice, a).0, nearest(slice, b).0);
+        if fa != fb {
+            if let Some(c) = level_corner(slice, (fa, fb), mid, level, a.dist(b)) {
+                if c.dist(a) > 1e-4 && c.dist(b) > 1e-4 {
+                    self.refine(slice, a, c, level, depth - 1)?;
+                    self.points
+                        .push(c)
+                        .map_err(|_| capacity(Limit::ContourPoints))?;
+                    return self.refine(slice, c, b, level, depth - 1);
+                }
+            }
+        }
+        let Some(m) = self.on_level(slice, mid, level) else {
+            return Ok(());
+        };
+        if m.dist(mid) <= 0.5 * SIMPLIFY_TOL {
+            return Ok(());
+        }
+        self.refine(slice, a, m, level, depth - 1)?;
+        self.points
+            .push(m)
+            .map_err(|_| capacity(Limit::ContourPoints))?;
+        self.refine(slice, m, b, level, depth - 1)
     }
 
     /// Traces one loop from cell `c0`, entry edge `e0`, simplifies it and records it.
@@ -533,6 +647,9 @@ impl OffsetSpiral {
             let x = self.exit(c, e, level);
             let p = self.crossing(slice, c, x, level);
             if self.points.last() != Some(&p) {
+                if let Some(&prev) = self.points[start..].last() {
+                    self.refine(slice, prev, p, level, REFINE_DEPTH)?;
+                }
                 self.points
                     .push(p)
                     .map_err(|_| capacity(Limit::ContourPoints))?;
@@ -550,6 +667,11 @@ impl OffsetSpiral {
             e = (x + 2) % 4;
             if c == c0 && e == e0 {
                 break;
+            }
+        }
+        if let (Some(&first), Some(&last)) = (self.points.get(start), self.points.last()) {
+            if self.points.len() > start + 1 {
+                self.refine(slice, last, first, level, REFINE_DEPTH)?;
             }
         }
         let len = simplify_closed(&mut self.points, start, SIMPLIFY_TOL);
