@@ -1,6 +1,8 @@
 //! Slices built by hand for the core's tests.
 #![allow(dead_code)]
 
+pub mod board;
+
 use hollowpath::geometry::Point;
 use hollowpath::{Feature, FeatureId, Material, Settings, Slice};
 
