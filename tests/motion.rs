@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::board::{duty_at, no_endstops, positions, Driver, Pin, Trace};
+use common::board::{
+    check_pulses, duty_at, expected_steps, no_endstops, positions, Driver, Pin, Trace,
+};
 use common::two_circles;
 use hollowpath::geometry::Point;
 use hollowpath::motion::config::{AXES, SEGMENT_S};
@@ -63,16 +65,6 @@ fn run_moves(cfg: PrinterConfig, moves: Vec<Move>) -> (Vec<Move>, Driver<N>) {
     (moves, d)
 }
 
-/// Where a path ends, in steps (rounded as a printer must, from the absolute position).
-fn expected_steps(cfg: &PrinterConfig, end: [f32; AXES]) -> [i64; AXES] {
-    let mut s = [0; AXES];
-    for a in 0..AXES {
-        let spm = cfg.axes[a].steps_per_mm;
-        s[a] = (end[a] * spm).round() as i64 - (cfg.home[a] * spm).round() as i64;
-    }
-    s
-}
-
 #[test]
 fn layer_steps_equal_net_displacement_exactly() {
     // Off-grid steps per mm so that every move rounds.
@@ -114,48 +106,6 @@ fn layer_steps_equal_net_displacement_exactly() {
         stats.stretched,
         stats.min_interval
     );
-}
-
-/// Per step pin: every pulse at least `pulse` ticks; every step at least `setup` ticks after
-/// its axis' last direction change, and no direction change while a step is high.
-fn check_pulses(trace: &Trace, pulse: u64, setup: u64) -> Result<(), String> {
-    let mut rise: [Option<u64>; AXES] = [None; AXES];
-    let mut dir_change = [0u64; AXES];
-    let mut pulses = 0;
-    for e in &trace.edges {
-        match (e.pin, e.high) {
-            (Pin::Step(a), true) => {
-                if dir_change[a] > 0 && e.t < dir_change[a] + setup {
-                    return Err(format!(
-                        "axis {a}: step at {} only {} ticks after its direction changed",
-                        e.t,
-                        e.t - dir_change[a]
-                    ));
-                }
-                rise[a] = Some(e.t);
-            }
-            (Pin::Step(a), false) => {
-                let r = rise[a].take().ok_or("a step pin fell without rising")?;
-                if e.t - r < pulse {
-                    return Err(format!("axis {a}: pulse of {} ticks at {r}", e.t - r));
-                }
-                pulses += 1;
-            }
-            (Pin::Dir(a), _) => {
-                if rise[a].is_some() {
-                    return Err(format!(
-                        "axis {a}: direction changed during a step at {}",
-                        e.t
-                    ));
-                }
-                dir_change[a] = e.t;
-            }
-        }
-    }
-    if pulses == 0 {
-        return Err("no pulses".into());
-    }
-    Ok(())
 }
 
 #[test]
