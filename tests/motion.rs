@@ -736,3 +736,146 @@ fn same_moves_give_the_same_edges() {
     assert!(a.edges.len() > 10_000);
     assert_eq!(a, b);
 }
+
+/// When channel 0 first opens and last shuts (ticks).
+fn open_close(trace: &Trace) -> (u64, u64) {
+    let open = trace
+        .duties
+        .iter()
+        .find(|&&(_, ch, duty)| ch == 0 && duty > 0.0)
+        .unwrap()
+        .0;
+    let mut close = 0;
+    let mut was_open = false;
+    for &(t, ch, duty) in &trace.duties {
+        if ch == 0 {
+            if was_open && duty == 0.0 {
+                close = t;
+            }
+            was_open = duty > 0.0;
+        }
+    }
+    (open, close)
+}
+
+#[test]
+fn lead_opens_earlier_and_lag_shuts_earlier() {
+    let mut moves = road(&[(2.0, 2.0), (12.0, 2.0)], [1.0, 0.0, 0.0, 0.0], 0.4);
+    moves.push(Move {
+        from: Point::new(12.0, 2.0),
+        to: Point::new(0.0, 0.0),
+        width: 0.4,
+        material: [1.0, 0.0, 0.0, 0.0],
+        deposit: false,
+    });
+    let run = |lead: f32, lag: f32| {
+        let mut c = cfg();
+        c.channel[0].lead_s = lead;
+        c.channel[0].lag_s = lag;
+        let (_, d) = run_moves(c, moves.clone());
+        let t = d.board.trace.borrow();
+        let (open, close) = open_close(&t);
+        (open as i64, close as i64)
+    };
+    let (o0, c0) = run(0.0, 0.0);
+    let (o1, c1) = run(0.010, 0.0);
+    let (o2, c2) = run(0.0, 0.010);
+    let ms = 1_000;
+    // With the lead the road starts 10 ms later (a longer dwell), the valve opens at the same
+    // time: 10 ms earlier relative to the road. The close is unchanged relative to the road.
+    assert!(
+        ((c1 - o1) - (c0 - o0) - 10 * ms).abs() <= ms,
+        "{o0} {c0} / {o1} {c1}"
+    );
+    // With the lag the valve shuts 10 ms earlier; the opening is unchanged.
+    assert_eq!(o2, o0);
+    assert!(((c0 - c2) - 10 * ms).abs() <= 2 * ms, "{c0} vs {c2}");
+}
+
+#[test]
+fn abort_shuts_every_valve_and_drops_the_job() {
+    let c = cfg();
+    let moves = road(&[(2.0, 2.0), (30.0, 2.0)], [0.25, 0.25, 0.25, 0.25], 0.4);
+    let mut d = Driver::<N>::new(c.clone());
+    d.home_in_place();
+    let spm = c.axes[0].steps_per_mm as i64;
+    d.run(&moves, Z, |d| {
+        d.board.trace.borrow().position[0] >= 10 * spm
+    });
+    for ch in 0..4 {
+        assert!(
+            duty_at(&d.board.trace.borrow(), ch, d.now()) > 0.0,
+            "channel {ch} shut"
+        );
+    }
+    d.machine.abort(&mut d.board);
+    assert_eq!(d.machine.state(), State::Stopped(Fault::Aborted));
+    assert!(d.machine.is_done());
+    let at = d.now();
+    for ch in 0..4 {
+        assert_eq!(duty_at(&d.board.trace.borrow(), ch, at), 0.0);
+    }
+    // Nothing more happens, whatever is asked.
+    assert!(!d.alarm());
+    d.machine.resume();
+    assert!(!d.alarm());
+    assert!(d.board.trace.borrow().edges.iter().all(|e| e.t <= at));
+}
+
+/// A virtual step timer: the host's clock jumps to the alarm; an alarm already past is
+/// refused as the hardware would.
+struct VirtualTimer {
+    now: u32,
+    alarm: Option<u32>,
+}
+
+impl hollowpath::motion::StepTimer for VirtualTimer {
+    fn now(&self) -> u32 {
+        self.now
+    }
+    fn set_alarm(&mut self, at: u32) -> Result<(), hollowpath::motion::Late> {
+        if hollowpath::motion::stepper::before(at, self.now) {
+            return Err(hollowpath::motion::Late);
+        }
+        self.alarm = Some(at);
+        Ok(())
+    }
+}
+
+#[test]
+fn a_step_timer_drives_the_same_edges() {
+    let moves = road(
+        &[(2.0, 2.0), (6.0, 2.0), (6.0, 5.0), (2.0, 3.0)],
+        [0.5, 0.0, 0.5, 0.0],
+        0.4,
+    );
+    // Through on_alarm at the deadlines...
+    let (_, direct) = run_moves(cfg(), moves.clone());
+    let direct = direct.board.trace.borrow().clone();
+    // ...and through the StepTimer trait, starting at the same instant.
+    let mut d = Driver::<N>::new(cfg());
+    d.home_in_place();
+    let mut timer = VirtualTimer {
+        now: d.ticks,
+        alarm: None,
+    };
+    let mut next = 0;
+    loop {
+        while next < moves.len() && d.machine.push_move(&moves[next], Z).is_ok() {
+            next += 1;
+        }
+        timer.alarm = None;
+        d.machine.service(&mut d.board, &mut timer);
+        match timer.alarm {
+            Some(at) => {
+                let dt = at.wrapping_sub(timer.now);
+                d.board.trace.borrow_mut().now += dt as u64;
+                timer.now = at;
+            }
+            None if next == moves.len() => break,
+            None => {}
+        }
+    }
+    assert!(d.machine.is_done());
+    assert_eq!(*d.board.trace.borrow(), direct);
+}

@@ -179,12 +179,15 @@ impl Valves {
                 let slope = (at(k + 1) - at(lo)) / (span * SEGMENT_S);
                 (at(k) + ch.tau * slope).max(0.0)
             };
-            out[c] = if ch.lag > 0 && at(ch.dead + ch.lag) == 0.0 {
+            // A channel about to shut shuts `lag` segments early; one about to open opens
+            // `lead` segments early.
+            let now = command(ch.dead);
+            out[c] = if ch.lag > 0 && now > 0.0 && command(ch.dead + ch.lag) == 0.0 {
                 0.0
-            } else if at(ch.dead) == 0.0 && ch.lead > 0 {
+            } else if ch.lead > 0 && now == 0.0 {
                 command(ch.dead + ch.lead)
             } else {
-                command(ch.dead)
+                now
             };
         }
         out
