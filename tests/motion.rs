@@ -879,3 +879,97 @@ fn a_step_timer_drives_the_same_edges() {
     assert!(d.machine.is_done());
     assert_eq!(*d.board.trace.borrow(), direct);
 }
+
+#[test]
+fn shutdown_shuts_the_valves_before_the_motors() {
+    let c = cfg();
+    let moves = road(&[(2.0, 2.0), (30.0, 2.0)], [0.5, 0.5, 0.0, 0.0], 0.4);
+    let mut d = Driver::<N>::new(c.clone());
+    d.home_in_place();
+    let spm = c.axes[0].steps_per_mm as i64;
+    // Pressed while a step pulse is high (the clock already stands at the alarm that would
+    // lower it), so the shutdown has a step pin to lower.
+    let mut pressed = None;
+    d.run(&moves, Z, |d| {
+        let mut t = d.board.trace.borrow_mut();
+        if pressed.is_none() && t.position[0] >= 12 * spm && t.levels[0][0] {
+            let at = t.now;
+            t.estop_at = Some(at);
+            pressed = Some(at);
+        }
+        false
+    });
+    let at = pressed.unwrap();
+    assert_eq!(d.machine.state(), State::Stopped(Fault::EmergencyStop));
+    let trace = d.board.trace.borrow();
+    let lowered = trace
+        .edges
+        .iter()
+        .find(|e| e.t >= at && e.pin == Pin::Step(0) && !e.high)
+        .expect("the step pin was not lowered");
+    let shut: Vec<u64> = trace
+        .duties
+        .iter()
+        .zip(&trace.duty_seq)
+        .filter(|((t, _, duty), _)| *t >= at && *duty == 0.0)
+        .map(|(_, &seq)| seq)
+        .collect();
+    assert_eq!(
+        shut.len(),
+        c.channels as usize,
+        "every channel written shut once"
+    );
+    assert!(
+        shut.iter().all(|&s| s < lowered.seq),
+        "a motor stopped before a valve"
+    );
+}
+
+#[test]
+fn a_starved_queue_stops_and_restarts_without_losing_a_step() {
+    // The layer's first moves, each pushed only once the machine has run dry.
+    let c = cfg();
+    let all = layer_moves();
+    let moves = &all[..60];
+    let mut d = Driver::<N>::new(c.clone());
+    d.home_in_place();
+    let mut restarts = 0;
+    for m in moves {
+        d.machine.push_move(m, Z).unwrap();
+        restarts += 1;
+        while d.alarm() {}
+        assert!(d.machine.is_done());
+        // Dry: every valve is shut while it waits.
+        let t = d.board.trace.borrow();
+        for ch in 0..c.channels as usize {
+            assert_eq!(duty_at(&t, ch, t.now), 0.0);
+        }
+    }
+    assert_eq!(restarts, 60);
+    let trace = d.board.trace.borrow();
+    let end = moves.last().unwrap().to;
+    assert_eq!(trace.position, expected_steps(&c, [end.x, end.y, Z]));
+    check_pulses(&trace, 2, 1).unwrap();
+}
+
+#[test]
+fn inverted_directions_and_a_finer_timer_keep_steps_and_pulses() {
+    let mut c = cfg();
+    c.axes[0].invert_dir = true;
+    c.axes[2].invert_dir = true;
+    c.tick_hz = 8_000_000;
+    c.step_pulse_ns = 2_500;
+    c.dir_setup_ns = 600;
+    let moves = layer_moves();
+    let moves = moves[..moves.len().min(600)].to_vec();
+    let (moves, d) = run_moves(c.clone(), moves);
+    let trace = d.board.trace.borrow();
+    let end = moves.last().unwrap().to;
+    assert_eq!(trace.position, expected_steps(&c, [end.x, end.y, Z]));
+    check_pulses(&trace, 20, 5).unwrap();
+    assert!(check_pulses(&trace, 21, 5).is_err());
+    // Inverted: X's direction pin is low while x grows (the first move goes to +x).
+    let first_x_dir = trace.edges.iter().find(|e| e.pin == Pin::Dir(0)).unwrap();
+    let first_move = &moves[0];
+    assert_eq!(first_x_dir.high, first_move.to.x < 0.0);
+}

@@ -26,6 +26,8 @@ pub struct Edge {
     pub t: u64,
     pub pin: Pin,
     pub high: bool,
+    /// Order among all writes (edges and duties).
+    pub seq: u64,
 }
 
 /// Everything the pins saw.
@@ -36,7 +38,12 @@ pub struct Trace {
     pub edges: Vec<Edge>,
     /// (time, channel, duty as a fraction of the maximum).
     pub duties: Vec<(u64, usize, f32)>,
-    levels: [[bool; 2]; AXES],
+    /// Order of each duty write among all writes.
+    pub duty_seq: Vec<u64>,
+    /// Writes so far.
+    pub writes: u64,
+    /// Step and direction levels per axis.
+    pub levels: [[bool; 2]; AXES],
     /// Steps from the start per axis, counted from the edges as a motor would.
     pub position: [i64; AXES],
     /// Whether a direction pin high is the positive direction, per axis.
@@ -74,10 +81,13 @@ impl Out {
             t.position[axis] += if forward { 1 } else { -1 };
         }
         let now = t.now;
+        t.writes += 1;
+        let seq = t.writes;
         t.edges.push(Edge {
             t: now,
             pin: self.pin,
             high,
+            seq,
         });
     }
 }
@@ -138,6 +148,9 @@ impl SetDutyCycle for Pwm {
     fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
         let mut t = self.trace.borrow_mut();
         let now = t.now;
+        t.writes += 1;
+        let seq = t.writes;
+        t.duty_seq.push(seq);
         t.duties
             .push((now, self.channel, duty as f32 / MAX_DUTY as f32));
         Ok(())
