@@ -12,8 +12,8 @@
 //! ```
 //!
 //! * [`config`]: the [`PrinterConfig`] (axes, speeds, pulse widths, valve channels with
-//!   their calibration curves and response) and its validation ([`PrinterError`] names the
-//!   key).
+//!   their calibration curves and response) and its validation; [`error`]: the
+//!   [`PrinterError`] that names the key.
 //! * [`planner`]: [`BlockMaker`] rounds each move's absolute target to whole steps, so steps
 //!   never drift over a path; the [`Planner`] ring replans corner speeds (junction deviation)
 //!   and trapezoids as blocks arrive, the tail always able to stop.
@@ -33,6 +33,7 @@
 //! same edges on the host and on the MCU.
 
 pub mod config;
+pub mod error;
 pub mod machine;
 pub mod planner;
 pub mod stepper;

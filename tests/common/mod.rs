@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod board;
+pub mod motion;
 
 use hollowpath::geometry::Point;
 use hollowpath::{Feature, FeatureId, Material, Settings, Slice};
