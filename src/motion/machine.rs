@@ -9,7 +9,7 @@
 //! apart while moving. A board with an emergency-stop interrupt calls
 //! [`Machine::emergency_stop`] from it directly.
 
-use super::config::{PrinterConfig, PrinterError, AXES};
+use super::config::{PrinterConfig, PrinterError, AXES, SEGMENT_RING};
 use super::planner::{BlockMaker, Planner};
 use super::stepper::{SegmentGen, StepTimer, Stepper, Ticks};
 use super::valve::Valves;
@@ -300,7 +300,11 @@ impl<const N: usize> Machine<N> {
     }
 
     fn run<B: Board>(&mut self, now: Ticks, board: &mut B) -> Result<Option<Ticks>, Fault> {
-        self.stepper.fill(&mut self.gen, &mut self.planner);
+        if self.stepper.is_idle() {
+            // Starting from rest: prepare the whole look-ahead first (the valves read it).
+            self.stepper
+                .fill(&mut self.gen, &mut self.planner, SEGMENT_RING);
+        }
         let loaded = self.stepper.stats.segments;
         let mut at_pause = false;
         let next = self
@@ -315,8 +319,10 @@ impl<const N: usize> Machine<N> {
             return Ok(None);
         }
         if self.stepper.stats.segments != loaded {
-            // A new segment: keep the look-ahead full, then command the valves from it.
-            self.stepper.fill(&mut self.gen, &mut self.planner);
+            // A new segment: keep the look-ahead full (two for the one taken, so a ring
+            // that ran short while blocks were missing catches up), then command the
+            // valves from it. Bounded: this runs in the step interrupt.
+            self.stepper.fill(&mut self.gen, &mut self.planner, 2);
             let flows = self.valves.frame(&self.stepper.current, &self.stepper.ring);
             self.valves
                 .apply(board, &flows)

@@ -382,9 +382,17 @@ impl Stepper {
         }
     }
 
-    /// Tops the ring up from `gen`.
-    pub fn fill<const N: usize>(&mut self, gen: &mut SegmentGen, planner: &mut Planner<N>) {
-        while !self.ring.is_full() {
+    /// Tops the ring up from `gen`, by at most `most` segments.
+    pub fn fill<const N: usize>(
+        &mut self,
+        gen: &mut SegmentGen,
+        planner: &mut Planner<N>,
+        most: usize,
+    ) {
+        for _ in 0..most {
+            if self.ring.is_full() {
+                break;
+            }
             let Some(s) = self.pending.take().or_else(|| gen.next(planner)) else {
                 break;
             };

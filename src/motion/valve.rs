@@ -164,13 +164,16 @@ impl Valves {
         ring: &heapless::Deque<Segment, R>,
     ) -> [f32; CHANNELS] {
         let mut out = [0.0; CHANNELS];
+        let (front, back) = ring.as_slices();
         for (c, ch) in self.ch.iter().enumerate() {
+            // Segment `k` ahead of the current one (0 past the end of what is prepared).
             let at = |k: usize| -> f32 {
-                if k == 0 {
-                    current.flow[c]
-                } else {
-                    ring.iter().nth(k - 1).map_or(0.0, |s| s.flow[c])
-                }
+                let s = match k {
+                    0 => Some(current),
+                    k if k <= front.len() => front.get(k - 1),
+                    k => back.get(k - 1 - front.len()),
+                };
+                s.map_or(0.0, |s| s.flow[c])
             };
             // The inverse of the lag, `q + tau dq/dt`, a dead time ahead (never below 0: a
             // valve cannot pull material back).
