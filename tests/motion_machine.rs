@@ -4,7 +4,7 @@
 mod common;
 
 use common::board::{check_pulses, duty_at, expected_steps, Driver, Pin};
-use common::motion::{cfg, road, N, Z};
+use common::motion::{cfg, delivered, first_time, road, N, Z};
 use hollowpath::motion::config::{AXES, SEGMENT_S};
 use hollowpath::motion::{Fault, PrinterConfig, State};
 
@@ -260,4 +260,53 @@ fn shutdown_shuts_the_valves_before_the_motors() {
         shut.iter().all(|&s| s < lowered.seq),
         "a motor stopped before a valve"
     );
+}
+
+#[test]
+fn pause_and_resume_leave_no_blob_and_no_gap() {
+    let c = cfg();
+    let (w, h) = (0.4f32, c.layer_height);
+    let pts: Vec<(f32, f32)> = (0..40)
+        .map(|k| (2.0 + k as f32 * 0.5, 2.0 + (k % 2) as f32 * 0.3))
+        .collect();
+    let moves = road(&pts, [0.6, 0.4, 0.0, 0.0], w);
+    let spm = c.axes[0].steps_per_mm;
+    // Volume deposited while the nozzle's x runs from `lo` to `hi` mm.
+    let volume = |d: &Driver<N>, lo: f32, hi: f32| -> f64 {
+        let trace = d.board.trace.borrow();
+        let t0 = first_time(&trace, |p| p[0] as f32 >= lo * spm);
+        let t1 = first_time(&trace, |p| p[0] as f32 >= hi * spm);
+        (0..2).map(|ch| delivered(&trace, &c, ch, t0, t1)).sum()
+    };
+    // Straight through.
+    let mut plain = Driver::<N>::new(c.clone());
+    plain.home_in_place();
+    plain.run(&moves, Z, |_| false);
+    // Paused once x passes 8 mm, for 300 ms, then resumed.
+    let mut d = Driver::<N>::new(c.clone());
+    d.home_in_place();
+    let mut asked = false;
+    d.run(&moves, Z, |d| {
+        if !asked && d.board.trace.borrow().position[0] as f32 >= 8.0 * spm {
+            d.machine.pause();
+            asked = true;
+        }
+        d.machine.state() == State::Paused
+    });
+    assert_eq!(d.machine.state(), State::Paused);
+    let x = d.board.trace.borrow().position[0] as f32 / spm;
+    d.wait(300_000);
+    d.machine.resume();
+    d.run(&moves[moves.len()..], Z, |_| false);
+    assert!(d.machine.is_done());
+    // Around the pause point the deposit differs from the uninterrupted road's by less than
+    // a road width's length of road (w x h x w): no blob, no gap.
+    let (lo, hi) = (x - 1.5, x + 1.5);
+    let (a, b) = (volume(&plain, lo, hi), volume(&d, lo, hi));
+    let piece = (w * h * w) as f64;
+    println!(
+        "around the pause at x = {x:.2} mm: {b:.4} mm^3 paused, {a:.4} straight through (a road width's piece is {piece:.4})"
+    );
+    assert!(a > 5.0 * piece, "nothing deposited: {a}");
+    assert!((b - a).abs() < piece, "paused {b} vs {a}");
 }

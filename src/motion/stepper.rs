@@ -418,8 +418,8 @@ impl Stepper {
         }
     }
 
-    /// Whether the segment just loaded (or the next one, when idle) is the start of a
-    /// pause.
+    /// Loads the next prepared segment to start at `start` (idle if there is none);
+    /// whether it is a pause.
     fn load(&mut self, start: Ticks) -> bool {
         let Some(seg) = self.ring.pop_front() else {
             self.phase = Phase::Idle;

@@ -1,9 +1,11 @@
 //! Motion test helpers: the printer, the layer and the small paths the motion tests run.
 #![allow(dead_code)]
 
-use super::board::{no_endstops, Driver};
+use super::board::{duty_at, no_endstops, positions, Driver, Trace};
 use super::two_circles;
 use hollowpath::geometry::Point;
+use hollowpath::motion::config::AXES;
+use hollowpath::motion::valve::flow_for;
 use hollowpath::motion::{PrinterConfig, State};
 use hollowpath::toolpath::moves::{path_moves, Move};
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
@@ -78,4 +80,41 @@ pub fn road(points: &[(f32, f32)], material: [f32; 4], width: f32) -> Vec<Move> 
         });
     }
     moves
+}
+
+/// The flow each channel delivers over time, from the duty timeline through the valve model
+/// (dead time, then the first-order lag towards the calibration curve's flow), integrated
+/// from `t0` to `t1` (ticks), mm^3.
+pub fn delivered(trace: &Trace, cfg: &PrinterConfig, channel: usize, t0: u64, t1: u64) -> f64 {
+    let ch = &cfg.channel[channel];
+    let hz = cfg.tick_hz as f64;
+    let dead = (ch.dead_time_s as f64 * hz) as u64;
+    let step = 10u64; // ticks
+    let decay = (-(step as f64 / hz) / ch.time_constant_s as f64).exp();
+    let mut q = 0.0f64;
+    let mut volume = 0.0;
+    let mut t = 0;
+    while t < t1 {
+        let duty = if t >= dead {
+            duty_at(trace, channel, t - dead)
+        } else {
+            0.0
+        };
+        let target = ch.full_flow as f64 * flow_for(&ch.curve, duty) as f64;
+        q = target + (q - target) * decay;
+        if t >= t0 {
+            volume += q * step as f64 / hz;
+        }
+        t += step;
+    }
+    volume
+}
+
+/// The first time (ticks) the trace's position satisfies `at`.
+pub fn first_time(trace: &Trace, at: impl Fn([i64; AXES]) -> bool) -> u64 {
+    positions(trace)
+        .into_iter()
+        .find(|(_, p)| at(*p))
+        .map(|(t, _)| t)
+        .expect("never there")
 }
