@@ -310,3 +310,55 @@ fn pause_and_resume_leave_no_blob_and_no_gap() {
     assert!(a > 5.0 * piece, "nothing deposited: {a}");
     assert!((b - a).abs() < piece, "paused {b} vs {a}");
 }
+
+#[test]
+fn a_broken_valve_shuts_the_machine_down_and_the_others_are_still_shut() {
+    let c = cfg();
+    let moves = road(
+        &[(2.0, 2.0), (12.0, 2.0), (12.0, 6.0)],
+        [0.25, 0.25, 0.25, 0.25],
+        0.4,
+    );
+    let mut d = Driver::<N>::new(c.clone());
+    d.home_in_place();
+    let spm = c.axes[0].steps_per_mm as i64;
+    let mut broke = None;
+    d.run(&moves, Z, |d| {
+        let mut t = d.board.trace.borrow_mut();
+        if broke.is_none() && t.position[0] >= 5 * spm {
+            t.broken_valve = Some(1);
+            broke = Some(t.now);
+        }
+        false
+    });
+    assert_eq!(
+        d.machine.state(),
+        State::Stopped(Fault::Valve { channel: 1 })
+    );
+    let trace = d.board.trace.borrow();
+    let end = trace.now;
+    for ch in [0, 2, 3] {
+        assert_eq!(duty_at(&trace, ch, end), 0.0, "channel {ch} left open");
+    }
+    // Stopped short of the road's end, every step pin low.
+    assert!(trace.position[0] < 12 * spm);
+    for a in 0..AXES {
+        let last = trace.edges.iter().rev().find(|e| e.pin == Pin::Step(a));
+        assert!(last.is_none_or(|e| !e.high));
+    }
+}
+
+#[test]
+fn a_move_needing_a_missing_channel_is_refused() {
+    let mut c = cfg();
+    c.channels = 2;
+    let mut d = Driver::<N>::new(c);
+    d.home_in_place();
+    let moves = road(&[(2.0, 2.0), (4.0, 2.0)], [0.5, 0.0, 0.5, 0.0], 0.4);
+    // The travel is fine, the road needs channel 2.
+    assert_eq!(d.machine.push_move(&moves[0], Z), Ok(()));
+    assert_eq!(
+        d.machine.push_move(&moves[1], Z),
+        Err(hollowpath::motion::Refused::Channel { channel: 2 })
+    );
+}

@@ -74,6 +74,12 @@ pub enum Refused {
     NotHomed,
     /// The machine was shut down.
     Stopped(Fault),
+    /// A depositing move asks for material from a channel the printer does not have
+    /// (`channels`).
+    Channel {
+        /// The channel.
+        channel: u8,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,6 +176,13 @@ impl<const N: usize> Machine<N> {
     /// Queues a layer's move at height `z`. A move of no whole step is dropped (`Ok`).
     pub fn push_move(&mut self, m: &Move, z: f32) -> Result<(), Refused> {
         self.check_accepting()?;
+        if m.deposit {
+            let used = self.cfg.channels().len();
+            if let Some(c) = (used..m.material.len()).find(|&c| m.material[c] > 0.0) {
+                // At most CHANNELS (asserted u8 in `config`).
+                return Err(Refused::Channel { channel: c as u8 });
+            }
+        }
         match self.maker.from_move(m, z) {
             Err(_) => Err(Refused::OutOfRange),
             Ok(None) => Ok(()),

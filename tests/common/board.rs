@@ -52,6 +52,8 @@ pub struct Trace {
     pub endstop_at: [i64; AXES],
     /// The emergency stop is pressed from this time on.
     pub estop_at: Option<u64>,
+    /// This valve channel refuses every duty written to it.
+    pub broken_valve: Option<usize>,
 }
 
 pub type Shared = Rc<RefCell<Trace>>;
@@ -135,8 +137,18 @@ pub struct Pwm {
     trace: Shared,
 }
 
+/// What a broken output answers.
+#[derive(Debug)]
+pub struct Broken;
+
+impl pwm::Error for Broken {
+    fn kind(&self) -> pwm::ErrorKind {
+        pwm::ErrorKind::Other
+    }
+}
+
 impl pwm::ErrorType for Pwm {
-    type Error = Infallible;
+    type Error = Broken;
 }
 
 pub const MAX_DUTY: u16 = 10_000;
@@ -145,8 +157,11 @@ impl SetDutyCycle for Pwm {
     fn max_duty_cycle(&self) -> u16 {
         MAX_DUTY
     }
-    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Broken> {
         let mut t = self.trace.borrow_mut();
+        if t.broken_valve == Some(self.channel) {
+            return Err(Broken);
+        }
         let now = t.now;
         t.writes += 1;
         let seq = t.writes;
