@@ -31,6 +31,8 @@ pub const MAX_TICK_HZ: u32 = 100_000_000;
 /// Finest axis the engine accepts, steps per millimetre (so that every position within
 /// [`MAX_POSITION_MM`](super::planner::MAX_POSITION_MM) is an `i32` of steps).
 pub const MAX_STEPS_PER_MM: f32 = 100_000.0;
+/// Longest step pulse or direction setup accepted, ns.
+pub const MAX_PULSE_NS: u32 = 100_000;
 /// Slowest timer the engine accepts, ticks per second.
 pub const MIN_TICK_HZ: u32 = 100_000;
 
@@ -41,6 +43,12 @@ const _: () = assert!(MAX_STEP_RATE_HZ * MAX_SEGMENT_S + 1.0 < u16::MAX as f32);
 const _: () = assert!((MAX_TICK_HZ as f32) * MAX_SEGMENT_S * 4.0 < u32::MAX as f32);
 // An absolute position in steps is an `i32` (both ways, with room for a displacement).
 const _: () = assert!(MAX_STEPS_PER_MM * super::planner::MAX_POSITION_MM * 2.0 < i32::MAX as f32);
+// A pulse in ticks is a `u32`: at most MAX_PULSE_NS at MAX_TICK_HZ.
+const _: () =
+    assert!((MAX_PULSE_NS as u64) * (MAX_TICK_HZ as u64) / 1_000_000_000 < u32::MAX as u64);
+// Axis and curve-point indices are `u8` in errors and faults.
+const _: () = assert!(AXES <= u8::MAX as usize);
+const _: () = assert!(CURVE_POINTS <= u8::MAX as usize);
 // Channel indices are `u8` in errors.
 const _: () = assert!(CHANNELS <= u8::MAX as usize);
 
@@ -233,7 +241,8 @@ impl PrinterConfig {
     /// Timer ticks for `ns` nanoseconds, rounded up (at least one).
     pub fn ns_to_ticks(&self, ns: u32) -> u32 {
         let t = (ns as u64 * self.tick_hz as u64).div_ceil(1_000_000_000);
-        // `ns` is at most 100 us (validated) and `tick_hz` at most MAX_TICK_HZ: 10^4 ticks.
+        // `ns` is at most MAX_PULSE_NS and `tick_hz` at most MAX_TICK_HZ (validated; the
+        // product in ticks fits a u32, asserted above).
         (t as u32).max(1)
     }
 
@@ -260,7 +269,7 @@ impl PrinterConfig {
             ("step_pulse_ns", self.step_pulse_ns),
             ("dir_setup_ns", self.dir_setup_ns),
         ] {
-            if value == 0 || value > 100_000 {
+            if value == 0 || value > MAX_PULSE_NS {
                 return Err(PrinterError::Pulse { key, value });
             }
         }
@@ -306,6 +315,13 @@ impl PrinterConfig {
             if !positive(value) {
                 return Err(PrinterError::Speed { key, value });
             }
+        }
+        // Longer than the whole range is not a homing move (and its steps fit a u32).
+        if self.homing_travel > 2.0 * super::planner::MAX_POSITION_MM {
+            return Err(PrinterError::Speed {
+                key: "homing_travel",
+                value: self.homing_travel,
+            });
         }
         if self.channels == 0 || self.channels as usize > CHANNELS {
             return Err(PrinterError::Channels {
@@ -555,6 +571,14 @@ mod tests {
         );
         let e = refused(|c| c.tick_hz = 1_000);
         assert_eq!(e, PrinterError::TickRate { value: 1_000 });
+        let e = refused(|c| c.homing_travel = 1e6);
+        assert_eq!(
+            e,
+            PrinterError::Speed {
+                key: "homing_travel",
+                value: 1e6
+            }
+        );
         let e = refused(|c| c.home[2] = f32::NAN);
         assert_eq!(e, PrinterError::Home { axis: 2 });
     }

@@ -2,7 +2,9 @@
 
 use core::fmt;
 
-use super::config::{AXES, MAX_STEPS_PER_MM, MAX_TICK_HZ, MIN_TICK_HZ, SEGMENT_RING, SEGMENT_S};
+use super::config::{
+    AXES, MAX_PULSE_NS, MAX_STEPS_PER_MM, MAX_TICK_HZ, MIN_TICK_HZ, SEGMENT_RING, SEGMENT_S,
+};
 use crate::config::CHANNELS;
 
 /// A value of a [`PrinterConfig`](super::PrinterConfig) that the motion code cannot honour.
@@ -41,7 +43,8 @@ pub enum PrinterError {
         value: f32,
     },
     /// A speed (`print_speed`, `travel_speed`, `homing_speed`, `junction_deviation`,
-    /// `homing_travel`, `layer_height`) is zero, negative or not finite.
+    /// `homing_travel`, `layer_height`) is zero, negative or not finite (or `homing_travel`
+    /// longer than twice the position range).
     Speed {
         /// The key.
         key: &'static str,
@@ -138,7 +141,7 @@ impl fmt::Display for PrinterError {
             ),
             PrinterError::Pulse { key, value } => write!(
                 f,
-                "{key}: {value} ns is out of range (more than 0, at most 100000)"
+                "{key}: {value} ns is out of range (more than 0, at most {MAX_PULSE_NS})"
             ),
             PrinterError::TickRate { value } => write!(
                 f,
