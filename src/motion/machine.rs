@@ -101,6 +101,8 @@ pub struct Machine<const N: usize> {
     valves: Valves,
     state: State,
     homing: Homing,
+    /// A pause was asked for and not reached yet.
+    pause_pending: bool,
 }
 
 impl<const N: usize> Machine<N> {
@@ -115,6 +117,7 @@ impl<const N: usize> Machine<N> {
             stepper: Stepper::new(&cfg),
             valves,
             state: State::Unhomed,
+            pause_pending: false,
             homing: Homing {
                 axis: 0,
                 steps: 0,
@@ -219,16 +222,21 @@ impl<const N: usize> Machine<N> {
         }
     }
 
-    /// Asks to pause at the first block boundary the machine can stop at.
+    /// Asks to pause at the first block boundary the machine can stop at (once: asking
+    /// again before it is reached changes nothing).
     pub fn pause(&mut self) {
-        if self.state == State::Ready && !self.gen.is_paused() && !self.planner.request_pause() {
+        if self.state != State::Ready || self.pause_pending {
+            return;
+        }
+        self.pause_pending = true;
+        if !self.planner.request_pause() {
             // The ring is empty: the block being cut ends at rest.
             self.gen.pause_after_current();
         }
     }
 
-    /// Continues after a pause (the valves reopen with their lead during a dwell); call
-    /// [`on_alarm`](Self::on_alarm) to restart the alarms.
+    /// Continues once [`Paused`](State::Paused) (the valves reopen with their lead during a
+    /// dwell); call [`on_alarm`](Self::on_alarm) to restart the alarms.
     pub fn resume(&mut self) {
         if self.state == State::Paused {
             self.gen.resume();
@@ -255,6 +263,7 @@ impl<const N: usize> Machine<N> {
         self.stepper.stop(board);
         self.planner.clear();
         self.gen.clear();
+        self.pause_pending = false;
         if !matches!(self.state, State::Stopped(_)) {
             self.state = State::Stopped(fault);
         }
@@ -329,6 +338,7 @@ impl<const N: usize> Machine<N> {
                 .close_all(board)
                 .map_err(|e| Fault::Valve { channel: e.channel })?;
             self.state = State::Paused;
+            self.pause_pending = false;
             return Ok(None);
         }
         if self.stepper.stats.segments != loaded {
