@@ -28,6 +28,77 @@
 //!   pause/resume at a block boundary, and one [`shutdown`](Machine::shutdown) (valves first,
 //!   then motors) for every fault.
 //!
+//! Driving it: implement [`Board`] for the pins, home, push moves whenever the look-ahead
+//! has room, and call [`Machine::on_alarm`] at each deadline it returns (a virtual clock
+//! jumps straight there; a board sets its timer's compare, or uses
+//! [`Machine::service`] with a [`StepTimer`]).
+//!
+//! ```
+//! use core::convert::Infallible;
+//! use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
+//! use embedded_hal::pwm::{self, SetDutyCycle};
+//! use hollowpath::geometry::Point;
+//! use hollowpath::motion::{Board, Machine, PrinterConfig};
+//! use hollowpath::toolpath::moves::Move;
+//!
+//! #[derive(Default)]
+//! struct Pin(bool);
+//! impl ErrorType for Pin { type Error = Infallible; }
+//! impl OutputPin for Pin {
+//!     fn set_low(&mut self) -> Result<(), Infallible> { self.0 = false; Ok(()) }
+//!     fn set_high(&mut self) -> Result<(), Infallible> { self.0 = true; Ok(()) }
+//! }
+//! impl InputPin for Pin {
+//!     fn is_high(&mut self) -> Result<bool, Infallible> { Ok(self.0) }
+//!     fn is_low(&mut self) -> Result<bool, Infallible> { Ok(!self.0) }
+//! }
+//! #[derive(Default)]
+//! struct Valve(u16);
+//! impl pwm::ErrorType for Valve { type Error = Infallible; }
+//! impl SetDutyCycle for Valve {
+//!     fn max_duty_cycle(&self) -> u16 { 1000 }
+//!     fn set_duty_cycle(&mut self, d: u16) -> Result<(), Infallible> { self.0 = d; Ok(()) }
+//! }
+//! #[derive(Default)]
+//! struct Pins { step: [Pin; 3], dir: [Pin; 3], input: Pin, valve: [Valve; 4] }
+//! impl Board for Pins {
+//!     type Out = Pin;
+//!     type In = Pin;
+//!     type Pwm = Valve;
+//!     fn step(&mut self, axis: usize) -> &mut Pin { &mut self.step[axis] }
+//!     fn dir(&mut self, axis: usize) -> &mut Pin { &mut self.dir[axis] }
+//!     fn endstop(&mut self, _: usize) -> &mut Pin { &mut self.input }
+//!     fn estop(&mut self) -> &mut Pin { &mut self.input }
+//!     fn valve(&mut self, c: usize) -> &mut Valve { &mut self.valve[c] }
+//! }
+//!
+//! let mut cfg = PrinterConfig::default();
+//! for axis in &mut cfg.axes {
+//!     axis.endstop = None; // homing takes the start as home
+//! }
+//! let mut machine = Machine::<16>::new(cfg).unwrap();
+//! let mut pins = Pins::default();
+//! let mut now = 0u32;
+//! machine.start_homing();
+//! while let Some(at) = machine.on_alarm(now, &mut pins) {
+//!     now = at;
+//! }
+//! let road = Move {
+//!     from: Point::new(0.0, 0.0),
+//!     to: Point::new(2.0, 1.0),
+//!     width: 0.4,
+//!     material: [0.5, 0.5, 0.0, 0.0],
+//!     deposit: true,
+//! };
+//! machine.push_move(&road, 0.0).unwrap();
+//! while let Some(at) = machine.on_alarm(now, &mut pins) {
+//!     now = at;
+//! }
+//! assert!(machine.is_done());
+//! // 2 mm x 400 steps/mm and 1 mm x 400 steps/mm, exactly.
+//! assert_eq!(machine.stepper().position, [800, 400, 0]);
+//! ```
+//!
 //! Motion depends on [`toolpath`](crate::toolpath) and [`geometry`](crate::geometry), never
 //! the other way. No allocation, no `unsafe`, all math through `libm`: the same moves give the
 //! same edges on the host and on the MCU.
