@@ -366,3 +366,27 @@ fn a_move_needing_a_missing_channel_is_refused() {
         Err(hollowpath::motion::Refused::Channel { channel: 2 })
     );
 }
+
+#[test]
+fn a_printer_with_fewer_channels_than_the_slice_uses_is_refused() {
+    // The two-circle slice deposits channels 0 (wall), 1 and 2 (the holes).
+    let slice = common::two_circles(hollowpath::Settings::default());
+    let mut c = PrinterConfig::default();
+    c.check_slice(&slice).unwrap();
+    c.channels = 3;
+    c.check_slice(&slice).unwrap();
+    c.channels = 2;
+    let e = c.check_slice(&slice).unwrap_err();
+    assert_eq!(
+        e,
+        hollowpath::motion::PrinterError::SliceChannel {
+            feature: hollowpath::FeatureId::Hole(1),
+            channel: 2,
+            channels: 2
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "channels: 2, but the material of hole 1 uses channel 2"
+    );
+}

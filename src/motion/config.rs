@@ -362,6 +362,27 @@ impl PrinterConfig {
     }
 }
 
+impl PrinterConfig {
+    /// Checks that the printer has every channel `slice` deposits from: each layer's
+    /// composition is a blend of the features' materials, so a channel none of them uses is
+    /// never needed, and one beyond [`channels`](Self::channels) is refused.
+    pub fn check_slice(&self, slice: &crate::Slice) -> Result<(), PrinterError> {
+        let used = self.channels().len();
+        for f in core::iter::once(slice.wall()).chain(slice.holes()) {
+            let m = f.material();
+            if let Some(c) = (used..m.len()).find(|&c| m[c] > 0.0) {
+                return Err(PrinterError::SliceChannel {
+                    feature: f.id(),
+                    // Below CHANNELS (asserted u8 above).
+                    channel: c as u8,
+                    channels: self.channels,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
 fn check_curve(channel: u8, curve: &[CurvePoint]) -> Result<(), PrinterError> {
     let bad = |point: usize| PrinterError::Curve {
         channel,

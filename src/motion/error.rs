@@ -6,6 +6,7 @@ use super::config::{
     AXES, MAX_PULSE_NS, MAX_STEPS_PER_MM, MAX_TICK_HZ, MIN_TICK_HZ, SEGMENT_RING, SEGMENT_S,
 };
 use crate::config::CHANNELS;
+use crate::FeatureId;
 
 /// A value of a [`PrinterConfig`](super::PrinterConfig) that the motion code cannot honour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,6 +92,16 @@ pub enum PrinterError {
         /// The first offending point.
         point: u8,
     },
+    /// The slice deposits a material from a channel beyond `channels` (every layer's
+    /// composition blends the features' materials).
+    SliceChannel {
+        /// The feature whose material needs it.
+        feature: FeatureId,
+        /// The channel.
+        channel: u8,
+        /// The printer's `channels`.
+        channels: u8,
+    },
     /// A channel's advance (`dead_time_s + time_constant_s` and the larger of `lead_s` and
     /// `lag_s`) is longer than the segment look-ahead ([`SEGMENT_RING`] segments).
     Advance {
@@ -161,6 +172,14 @@ impl fmt::Display for PrinterError {
             PrinterError::Curve { channel, point } => write!(
                 f,
                 "channel[{channel}].curve: point {point} breaks the curve (from duty 0 flow 0 to duty 1 flow 1, duty rising, flow never falling)"
+            ),
+            PrinterError::SliceChannel {
+                feature,
+                channel,
+                channels,
+            } => write!(
+                f,
+                "channels: {channels}, but the material of {feature} uses channel {channel}"
             ),
             PrinterError::Advance { channel, advance } => write!(
                 f,
