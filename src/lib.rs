@@ -13,6 +13,8 @@
 //! slice ──► field + cells ──► MCLs: insert ──► match (Algorithm I) ──► relax ──► Plan
 //!                                                                      │
 //!                 layers of Vertex (position, composition, road width) ◄┘ toolpath
+//!                                      │ moves
+//!        blocks ─► look-ahead ─► segments ─► step/dir edges + valve duties    motion
 //! ```
 //!
 //! * [`slice`](mod@slice): the validated [`Slice`] (wall, hollow features, materials, [`Settings`]).
@@ -42,6 +44,18 @@
 //!   that neighbouring roads meet without gap or overlap where MCLs fan out or turns leave a
 //!   sliver, and never wider than twice the clearance from the features.
 //!
+//! * [`motion`]: a layer's moves on the printer. Blocks in whole steps (absolute targets,
+//!   so a path moves exactly its displacement) enter a look-ahead ring that replans corner
+//!   speeds (junction deviation) and trapezoids as they arrive; the trapezoids are cut into
+//!   ~1 ms constant-rate segments that a small integer Bresenham routine, called from the
+//!   step timer's interrupt, turns into step and direction edges through `embedded-hal`
+//!   pins. The same segments carry the flow each valve channel must deliver (road width x
+//!   layer height x actual speed, split by the composition), turned into PWM duty through
+//!   the channel's calibration curve and commanded ahead of the motion by the valve's dead
+//!   time with its lag inverted. Homing, emergency stop, pause/resume and one shutdown path
+//!   sit on top, generic over a [`Board`](motion::Board) of pins and a
+//!   [`StepTimer`](motion::StepTimer), so a host's virtual printer runs the same code.
+//!
 //! Below them, [`geometry`] holds points, polygons, polylines and the grid; [`error`] the one
 //! error type. Logging goes through the private `fmt` macros: `defmt` with the `defmt` feature,
 //! nothing otherwise.
@@ -66,6 +80,7 @@ pub mod field;
 pub mod geometry;
 pub mod keep_out;
 pub mod mcl;
+pub mod motion;
 pub mod plan;
 pub mod slice;
 pub mod toolpath;

@@ -1,6 +1,9 @@
 //! Slices built by hand for the core's tests.
 #![allow(dead_code)]
 
+pub mod board;
+pub mod motion;
+
 use hollowpath::geometry::Point;
 use hollowpath::{Feature, FeatureId, Material, Settings, Slice};
 

@@ -1,0 +1,538 @@
+//! Look-ahead: a fixed ring of [`Block`]s whose speed profiles are replanned as blocks arrive.
+//!
+//! Each block is one straight move in whole steps ([`BlockMaker`] rounds the absolute target,
+//! so rounding never accumulates). Its *nominal* speed is the print or travel speed, lowered
+//! until no axis exceeds its `max_speed`; its acceleration is the largest no axis' `max_accel`
+//! is exceeded by. Where two blocks meet, the corner speed follows grbl's junction deviation:
+//! the speed at which the centripetal acceleration on a circle that deviates
+//! `junction_deviation` from the corner equals the acceleration,
+//! `v^2 = a * jd * sin(theta/2) / (1 - sin(theta/2))`. Where the nozzle switches between
+//! depositing and travel it stops (the valves open and shut from rest).
+//!
+//! After every push the profiles are recomputed, grbl-style: a reverse pass from the tail
+//! (whose exit is always 0, so the machine can always stop on what it holds) caps each entry
+//! by what can still be braked away, then a forward pass from the head's fixed entry caps each
+//! exit by what can be reached. Each block gets a trapezoid: entry, cruise, exit at constant
+//! acceleration. All math is `f32` through `libm`, deterministic.
+
+use super::config::{PrinterConfig, AXES};
+use crate::toolpath::moves::Move;
+use crate::Material;
+
+/// Largest absolute position accepted, mm (a block target outside is refused).
+pub const MAX_POSITION_MM: f32 = crate::config::MAX_COORD_MM + 100.0;
+
+/// One straight move in whole steps with its speed profile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Block {
+    /// Signed steps per axis.
+    pub steps: [i32; AXES],
+    /// The absolute position it ends at, steps.
+    pub target: [i32; AXES],
+    /// Length, mm (of the displacement in whole steps).
+    pub length: f32,
+    /// Unit direction.
+    pub unit: [f32; AXES],
+    /// Nominal (cruise) speed, mm/s.
+    pub nominal: f32,
+    /// Acceleration along the block, mm/s^2.
+    pub accel: f32,
+    /// Largest entry speed (the junction with the block before), mm/s.
+    pub max_entry: f32,
+    /// Entry speed of the profile, mm/s.
+    pub entry: f32,
+    /// Cruise (peak) speed of the profile, mm/s.
+    pub cruise: f32,
+    /// Exit speed of the profile, mm/s.
+    pub exit: f32,
+    /// Road width, mm.
+    pub width: f32,
+    /// Composition.
+    pub material: Material,
+    /// Whether the valves deposit along it.
+    pub deposit: bool,
+    /// Whether the machine pauses after it (its exit is 0).
+    pub pause_after: bool,
+}
+
+impl Block {
+    /// A block that moves nowhere (ring filler).
+    pub const EMPTY: Block = Block {
+        steps: [0; AXES],
+        target: [0; AXES],
+        length: 0.0,
+        unit: [0.0; AXES],
+        nominal: 0.0,
+        accel: 0.0,
+        max_entry: 0.0,
+        entry: 0.0,
+        cruise: 0.0,
+        exit: 0.0,
+        width: 0.0,
+        material: [0.0; 4],
+        deposit: false,
+        pause_after: false,
+    };
+
+    /// Its trapezoid.
+    pub fn profile(&self) -> Profile {
+        Profile::new(self.entry, self.cruise, self.exit, self.accel, self.length)
+    }
+}
+
+/// A trapezoidal speed profile along one block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Profile {
+    /// Entry, cruise and exit speeds, mm/s.
+    pub v: [f32; 3],
+    /// Acceleration, mm/s^2.
+    pub accel: f32,
+    /// Length, mm.
+    pub length: f32,
+    /// Accelerating distance, mm.
+    pub d_acc: f32,
+    /// Braking distance, mm.
+    pub d_dec: f32,
+    /// Accelerating, cruising and braking times, s.
+    pub t: [f32; 3],
+}
+
+impl Profile {
+    /// The trapezoid from `v0` up to `vc` and down to `v1` over `length` at `accel`; speeds
+    /// that do not fit (rounding) are pulled in so the distances add up.
+    pub fn new(v0: f32, vc: f32, v1: f32, accel: f32, length: f32) -> Profile {
+        let a = accel;
+        let vc = vc.max(v0).max(v1);
+        let mut d_acc = ((vc * vc - v0 * v0) / (2.0 * a)).clamp(0.0, length);
+        let mut d_dec = ((vc * vc - v1 * v1) / (2.0 * a)).clamp(0.0, length);
+        if d_acc + d_dec > length {
+            let over = d_acc + d_dec - length;
+            // Take the excess off the longer ramp (a rounding-level correction).
+            if d_acc > d_dec {
+                d_acc -= over;
+            } else {
+                d_dec -= over;
+            }
+        }
+        let cruise_len = (length - d_acc - d_dec).max(0.0);
+        let t_acc = (vc - v0) / a;
+        let t_dec = (vc - v1) / a;
+        let t_cruise = if vc > 0.0 { cruise_len / vc } else { 0.0 };
+        Profile {
+            v: [v0, vc, v1],
+            accel: a,
+            length,
+            d_acc,
+            d_dec,
+            t: [t_acc, t_cruise, t_dec],
+        }
+    }
+
+    /// Total time, s.
+    pub fn duration(&self) -> f32 {
+        self.t[0] + self.t[1] + self.t[2]
+    }
+
+    /// Distance covered after `t` seconds, mm (clamped to the length).
+    pub fn position(&self, t: f32) -> f32 {
+        let [v0, vc, _] = self.v;
+        let a = self.accel;
+        let s = if t <= self.t[0] {
+            v0 * t + 0.5 * a * t * t
+        } else if t <= self.t[0] + self.t[1] {
+            self.d_acc + vc * (t - self.t[0])
+        } else {
+            let u = (t - self.t[0] - self.t[1]).min(self.t[2]);
+            self.length - self.d_dec + vc * u - 0.5 * a * u * u
+        };
+        s.clamp(0.0, self.length)
+    }
+
+    /// Speed after `t` seconds, mm/s.
+    pub fn speed(&self, t: f32) -> f32 {
+        let [v0, vc, v1] = self.v;
+        if t <= self.t[0] {
+            v0 + self.accel * t
+        } else if t <= self.t[0] + self.t[1] {
+            vc
+        } else {
+            (vc - self.accel * (t - self.t[0] - self.t[1])).max(v1)
+        }
+    }
+}
+
+/// A full ring hands the block back (as `heapless` does).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Full<T>(pub T);
+
+/// A target outside [`MAX_POSITION_MM`] or not a finite number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OutOfRange;
+
+/// Turns moves into blocks: knows the axes and the absolute position in steps at the end of
+/// the last block made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BlockMaker {
+    /// Where the last block ends, steps.
+    pub position: [i32; AXES],
+    steps_per_mm: [f32; AXES],
+    max_speed: [f32; AXES],
+    max_accel: [f32; AXES],
+    print_speed: f32,
+    travel_speed: f32,
+}
+
+impl BlockMaker {
+    /// For a validated printer, at its home position.
+    pub fn new(cfg: &PrinterConfig) -> BlockMaker {
+        let mut m = BlockMaker {
+            position: [0; AXES],
+            steps_per_mm: [0.0; AXES],
+            max_speed: [0.0; AXES],
+            max_accel: [0.0; AXES],
+            print_speed: cfg.print_speed,
+            travel_speed: cfg.travel_speed,
+        };
+        for (i, a) in cfg.axes.iter().enumerate() {
+            m.steps_per_mm[i] = a.steps_per_mm;
+            m.max_speed[i] = a.max_speed;
+            m.max_accel[i] = a.max_accel;
+        }
+        m.position = m.to_steps(cfg.home).unwrap_or([0; AXES]);
+        m
+    }
+
+    /// `mm` in whole steps (rounded to nearest), or [`OutOfRange`].
+    pub fn to_steps(&self, mm: [f32; AXES]) -> Result<[i32; AXES], OutOfRange> {
+        let mut s = [0; AXES];
+        for i in 0..AXES {
+            if !mm[i].is_finite() || libm::fabsf(mm[i]) > MAX_POSITION_MM {
+                return Err(OutOfRange);
+            }
+            // Bounded by MAX_POSITION_MM x MAX_STEPS_PER_MM (asserted in `config`).
+            s[i] = libm::roundf(mm[i] * self.steps_per_mm[i]) as i32;
+        }
+        Ok(s)
+    }
+
+    /// The block from the current position to `to` (mm) at `speed`, or `None` if it moves no
+    /// whole step. Does not move the position: [`commit`](Self::commit) the block once it is
+    /// queued.
+    pub fn block(
+        &self,
+        to: [f32; AXES],
+        speed: f32,
+        width: f32,
+        material: Material,
+        deposit: bool,
+    ) -> Result<Option<Block>, OutOfRange> {
+        let target = self.to_steps(to)?;
+        let mut steps = [0; AXES];
+        let mut mm = [0.0; AXES];
+        let mut len2 = 0.0;
+        for i in 0..AXES {
+            steps[i] = target[i] - self.position[i];
+            mm[i] = steps[i] as f32 / self.steps_per_mm[i];
+            len2 += mm[i] * mm[i];
+        }
+        if steps == [0; AXES] {
+            return Ok(None);
+        }
+        let length = libm::sqrtf(len2);
+        let mut unit = [0.0; AXES];
+        let mut nominal = speed;
+        let mut accel = f32::INFINITY;
+        for i in 0..AXES {
+            unit[i] = mm[i] / length;
+            let u = libm::fabsf(unit[i]);
+            if u > 0.0 {
+                nominal = nominal.min(self.max_speed[i] / u);
+                accel = accel.min(self.max_accel[i] / u);
+            }
+        }
+        Ok(Some(Block {
+            steps,
+            target,
+            length,
+            unit,
+            nominal,
+            accel,
+            width,
+            material,
+            deposit,
+            ..Block::EMPTY
+        }))
+    }
+
+    /// The block of a layer's move at height `z`: depositing moves at the print speed, travel
+    /// at the travel speed.
+    pub fn from_move(&self, m: &Move, z: f32) -> Result<Option<Block>, OutOfRange> {
+        let speed = if m.deposit {
+            self.print_speed
+        } else {
+            self.travel_speed
+        };
+        self.block([m.to.x, m.to.y, z], speed, m.width, m.material, m.deposit)
+    }
+
+    /// Moves the position to the end of `b` (once it is queued).
+    pub fn commit(&mut self, b: &Block) {
+        self.position = b.target;
+    }
+}
+
+/// The corner speed from `a` into `b` (grbl's junction deviation), mm/s.
+pub fn junction_speed(a: &Block, b: &Block, deviation: f32) -> f32 {
+    let mut cos = 0.0;
+    for i in 0..AXES {
+        cos -= a.unit[i] * b.unit[i];
+    }
+    let limit = a.nominal.min(b.nominal);
+    if cos > 0.999_999 {
+        // A reversal: stop.
+        return 0.0;
+    }
+    if cos < -0.999_999 {
+        // Straight on.
+        return limit;
+    }
+    let sin_half = libm::sqrtf(0.5 * (1.0 - cos));
+    let accel = a.accel.min(b.accel);
+    let v2 = accel * deviation * sin_half / (1.0 - sin_half);
+    libm::sqrtf(v2).min(limit)
+}
+
+/// The look-ahead ring of up to `N` blocks.
+#[derive(Clone, Debug)]
+pub struct Planner<const N: usize> {
+    ring: [Block; N],
+    head: usize,
+    len: usize,
+    /// The head's entry speed, fixed when the block before it was taken.
+    fixed_entry: f32,
+    deviation: f32,
+}
+
+impl<const N: usize> Planner<N> {
+    /// An empty ring for cornering at `junction_deviation` mm.
+    pub const fn new(junction_deviation: f32) -> Planner<N> {
+        Planner {
+            ring: [Block::EMPTY; N],
+            head: 0,
+            len: 0,
+            fixed_entry: 0.0,
+            deviation: junction_deviation,
+        }
+    }
+
+    /// Blocks held.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether it holds none.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Whether another push would be refused.
+    pub fn is_full(&self) -> bool {
+        self.len == N
+    }
+
+    fn index(&self, k: usize) -> usize {
+        (self.head + k) % N
+    }
+
+    /// Block `k` from the head, with its current profile.
+    pub fn get(&self, k: usize) -> Option<&Block> {
+        if k < self.len {
+            Some(&self.ring[self.index(k)])
+        } else {
+            None
+        }
+    }
+
+    /// Appends a block and replans; a full ring hands it back.
+    pub fn push(&mut self, mut b: Block) -> Result<(), Full<Block>> {
+        if self.len == N {
+            return Err(Full(b));
+        }
+        b.pause_after = false;
+        b.max_entry = match self.len {
+            // The block before was taken with exit 0 (it was the tail).
+            0 => 0.0,
+            n => {
+                let prev = &self.ring[self.index(n - 1)];
+                if prev.deposit != b.deposit || prev.pause_after {
+                    0.0
+                } else {
+                    junction_speed(prev, &b, self.deviation)
+                }
+            }
+        };
+        let at = self.index(self.len);
+        self.ring[at] = b;
+        self.len += 1;
+        self.replan();
+        Ok(())
+    }
+
+    /// Takes the head block with its final profile; its exit becomes the next head's fixed
+    /// entry.
+    pub fn pop(&mut self) -> Option<Block> {
+        if self.len == 0 {
+            return None;
+        }
+        let b = self.ring[self.head];
+        self.head = (self.head + 1) % N;
+        self.len -= 1;
+        self.fixed_entry = if self.len == 0 { 0.0 } else { b.exit };
+        Some(b)
+    }
+
+    /// Drops every block (after a fault).
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.fixed_entry = 0.0;
+    }
+
+    /// Marks the first block after which the machine can stop (from the head's fixed entry)
+    /// to pause there, and replans. `false` if the ring is empty: then the block being
+    /// stepped ends at rest already.
+    pub fn request_pause(&mut self) -> bool {
+        if self.len == 0 {
+            return false;
+        }
+        let mut m = self.len - 1;
+        'search: for cand in 0..self.len {
+            // The fastest entry of the head from which the machine stops at the end of `cand`.
+            let mut v = 0.0f32;
+            for k in (0..=cand).rev() {
+                let b = &self.ring[self.index(k)];
+                v = libm::sqrtf(v * v + 2.0 * b.accel * b.length);
+                if k > 0 {
+                    v = v.min(b.max_entry);
+                }
+            }
+            if v >= self.fixed_entry * (1.0 + 1e-5) + 1e-6 {
+                m = cand;
+                break 'search;
+            }
+        }
+        let i = self.index(m);
+        self.ring[i].pause_after = true;
+        if m + 1 < self.len {
+            let j = self.index(m + 1);
+            self.ring[j].max_entry = 0.0;
+        }
+        self.replan();
+        true
+    }
+
+    /// The reverse and forward passes over the whole ring.
+    fn replan(&mut self) {
+        // Reverse: `entry` holds the fastest entry from which the rest can still stop.
+        let mut next_entry = 0.0f32;
+        for k in (0..self.len).rev() {
+            let i = self.index(k);
+            let b = &mut self.ring[i];
+            if b.pause_after {
+                next_entry = 0.0;
+            }
+            let brake = libm::sqrtf(next_entry * next_entry + 2.0 * b.accel * b.length);
+            b.entry = b.max_entry.min(brake);
+            next_entry = b.entry;
+        }
+        // Forward: from the fixed entry, each exit is what can be reached and what the next
+        // block can take.
+        let mut v = self.fixed_entry;
+        for k in 0..self.len {
+            let i = self.index(k);
+            let next_bound = if k + 1 < self.len {
+                self.ring[self.index(k + 1)].entry
+            } else {
+                0.0
+            };
+            let b = &mut self.ring[i];
+            let entry = if k == 0 { v } else { v.min(b.entry) };
+            let reach = libm::sqrtf(entry * entry + 2.0 * b.accel * b.length);
+            let exit = if b.pause_after {
+                0.0
+            } else {
+                next_bound.min(reach)
+            };
+            let peak = libm::sqrtf(b.accel * b.length + 0.5 * (entry * entry + exit * exit));
+            b.entry = entry;
+            b.exit = exit;
+            b.cruise = b.nominal.min(peak).max(entry).max(exit);
+            v = exit;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Point;
+
+    fn blocks(points: &[(f32, f32)]) -> std::vec::Vec<Block> {
+        let cfg = PrinterConfig::default();
+        let mut maker = BlockMaker::new(&cfg);
+        let mut out = std::vec::Vec::new();
+        for w in points.windows(2) {
+            let m = Move {
+                from: Point::new(w[0].0, w[0].1),
+                to: Point::new(w[1].0, w[1].1),
+                width: 0.4,
+                material: [1.0, 0.0, 0.0, 0.0],
+                deposit: true,
+            };
+            let b = maker.from_move(&m, 0.0).unwrap().unwrap();
+            maker.commit(&b);
+            out.push(b);
+        }
+        out
+    }
+
+    #[test]
+    fn junction_speed_follows_grbl() {
+        let b = blocks(&[
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 10.0),
+            (0.0, 10.0),
+            (10.0, 10.0),
+        ]);
+        let jd = 0.01;
+        // 90 degrees: v^2 = a jd sin45 / (1 - sin45).
+        let s = libm::sqrtf(0.5);
+        let want = libm::sqrtf(b[0].accel.min(b[1].accel) * jd * s / (1.0 - s));
+        assert!((junction_speed(&b[0], &b[1], jd) - want).abs() < 1e-4);
+        // A reversal stops; straight on keeps the nominal speed.
+        assert_eq!(junction_speed(&b[2], &b[3], jd), 0.0);
+        assert_eq!(junction_speed(&b[0], &b[0], jd), b[0].nominal);
+    }
+
+    #[test]
+    fn a_full_ring_hands_the_block_back_and_the_tail_can_stop() {
+        let pts: std::vec::Vec<(f32, f32)> = (0..10).map(|k| (k as f32, 0.0)).collect();
+        let b = blocks(&pts);
+        let mut p = Planner::<4>::new(0.01);
+        for blk in &b[..4] {
+            p.push(*blk).unwrap();
+            assert_eq!(p.get(p.len() - 1).unwrap().exit, 0.0);
+        }
+        assert_eq!(p.push(b[4]), Err(Full(b[4])));
+        // Straight on: the inner junctions run faster than rest.
+        assert!(p.get(1).unwrap().entry > 1.0);
+        assert_eq!(p.get(0).unwrap().entry, 0.0);
+        let head = p.pop().unwrap();
+        assert_eq!(head.exit, p.get(0).unwrap().entry);
+    }
+}
