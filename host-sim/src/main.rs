@@ -343,9 +343,11 @@ fn run(
     }
     // Each layer's figures, with how its generator fared (where a jump was needed, and why).
     let mut layer_json = Vec::new();
-    for (note, m) in measured.iter().take(built.len()) {
+    for ((note, m), l) in measured.iter().zip(&built) {
         let mut v = serde_json::to_value(m).map_err(|e| e.to_string())?;
         v["note"] = serde_json::Value::String(note.clone());
+        let why = host_sim::metrics::explain_starts(slice, &l.path, note);
+        v["start_notes"] = serde_json::to_value(&why).map_err(|e| e.to_string())?;
         layer_json.push(v);
     }
     let mut doc = serde_json::json!({ "slice": name, "layers": layer_json });

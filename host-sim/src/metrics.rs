@@ -349,3 +349,58 @@ pub fn measure_with(
 ) -> LayerMetrics {
     Meter::new(slice, *options).measure(pattern, path, field)
 }
+
+/// Why a layer's road starts again: one per extrusion start after the first
+/// ([`explain_starts`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StartNote {
+    /// Where the road starts again, mm.
+    pub at: [f32; 2],
+    /// The travel that leads there, mm.
+    pub travel_mm: f64,
+    /// Why, in the lab's terms.
+    pub why: String,
+}
+
+/// Explains every extrusion start of `path` after the first, in `metrics.json`: a break
+/// shorter than two road widths is a move that could not be laid (a pinch narrower than
+/// `min_width`, measured across at the break, or a move that did not fit at its width and was
+/// left out); a longer travel reaches a separate piece, for the layer's reason `note` (the
+/// generator's account of its pieces and jumps).
+pub fn explain_starts(slice: &Slice, path: &[Vertex], note: &str) -> Vec<StartNote> {
+    let s = slice.settings();
+    let runs = road_runs(path);
+    let mut notes = Vec::new();
+    for pair in runs.windows(2) {
+        let (end, start) = (path[pair[0].end - 1].at, path[pair[1].start].at);
+        // The travel into a road runs from the previous road's end to the road's first vertex.
+        let travel: f64 = (pair[0].end..=pair[1].start)
+            .map(|k| length(path[k - 1].at, path[k].at))
+            .sum();
+        let mid = end.lerp(start, 0.5);
+        let across = 2.0 * slice.wall_clearance(mid).min(slice.nearest_holes(mid).1);
+        let why = if travel <= 2.0 * s.road_width as f64 {
+            if across < s.min_width {
+                format!(
+                    "a pinch {across:.3} mm across at ({:.2}, {:.2}), narrower than min_width \
+                     {:.3} mm: no road fits there",
+                    mid.x, mid.y, s.min_width
+                )
+            } else {
+                format!(
+                    "a move at ({:.2}, {:.2}) did not fit at its width ({across:.3} mm across) \
+                     and was left out",
+                    mid.x, mid.y
+                )
+            }
+        } else {
+            format!("a separate piece, reached by travel: {note}")
+        };
+        notes.push(StartNote {
+            at: [start.x, start.y],
+            travel_mm: travel,
+            why,
+        });
+    }
+    notes
+}

@@ -109,6 +109,7 @@ fn plan_with_layers_writes_previews_metrics_and_gcode() {
             assert!(l[key].is_number(), "{key} missing in {l}");
         }
         assert_eq!(l["starts"], 1);
+        assert_eq!(l["start_notes"].as_array().map(Vec::len), Some(0), "{l}");
         assert!(
             l["note"].as_str().unwrap().contains("0 jump")
                 || l["note"].as_str().unwrap().contains("1 piece")

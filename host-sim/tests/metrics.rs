@@ -615,3 +615,34 @@ fn metrics_serialise_with_their_names() {
     assert_eq!(json["starts"], 1);
     assert_eq!(json["pattern"], "raster");
 }
+
+/// Every start after the first is explained: a short break at a pinch narrower than
+/// `min_width`, a short break where the road is wide enough (a move left out), and a long
+/// travel to a separate piece, which carries the layer's own reason.
+#[test]
+fn every_extra_start_is_explained() {
+    use host_sim::metrics::explain_starts;
+    let slice = two_holes();
+    let path = vec![
+        dep(-2.0, 11.95),
+        dep(-0.1, 11.95),
+        travel(0.1, 11.95),
+        dep(2.0, 11.95),
+        dep(2.0, 8.0),
+        dep(0.1, 8.0),
+        travel(-0.1, 8.0),
+        dep(-2.0, 8.0),
+        travel(-2.0, -8.0),
+        dep(2.0, -8.0),
+    ];
+    let notes = explain_starts(&slice, &path, "2 pieces: loops lie apart");
+    assert_eq!(notes.len(), 3, "{notes:?}");
+    assert!(notes[0].why.contains("pinch") && notes[0].why.contains("min_width"));
+    assert!((notes[0].travel_mm - 0.2).abs() < 1e-4, "{notes:?}");
+    assert!(notes[1].why.contains("did not fit"), "{notes:?}");
+    assert!(notes[2].why.contains("separate piece") && notes[2].why.contains("loops lie apart"));
+    assert_eq!(notes[2].at, [-2.0, -8.0]);
+    assert!((notes[2].travel_mm - 16.0).abs() < 1e-4);
+    // One start, nothing to explain.
+    assert!(explain_starts(&slice, &path[..2], "").is_empty());
+}
