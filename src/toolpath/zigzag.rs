@@ -10,6 +10,13 @@
 //! by side on a curve are then spliced into one (two neighbouring arcs swapped crosswise, at
 //! the cost of one short doubled stretch of curve). What still remains separate is reached by
 //! a travel move to the nearest free end, as the paper does for its internal regions.
+//!
+//! Each MCL's road owns half the gap to its neighbouring MCLs either side ([`band_at`]) and is
+//! as wide as that band up to [`max_width`](crate::Settings::max_width). Where MCLs fan apart
+//! (toward the wall, in large cells) the band outgrows it, and the road fills the band with a
+//! *meander* instead ([`meander`]): strokes across the band a road apart, each stroke's ends
+//! kept a road off every keep-out curve (where the arcs run), all still inside the one road.
+//! The strokes lie on one grid along the whole MCL, whatever the spacing of its vertices.
 
 use heapless::Vec;
 
@@ -36,6 +43,10 @@ const EDGE_MARGIN: f32 = 3e-3;
 /// width follows the clearance there instead of tapering over the whole move.
 const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
 const NONE: u16 = u16::MAX;
+/// A road meanders only where its band is wider than the widest road by this many road
+/// widths: a narrower excess costs less left as slivers either side than paid for with the
+/// turns of a meander of one or two strokes (which lap back over the wide road around them).
+const MEANDER_MARGIN: f32 = 0.5;
 /// Up to this many curves with an even number of ends, every combination of their pairings
 /// is tried (every slice of up to 8 holes); beyond, pairings are improved one curve at a time.
 const EXHAUSTIVE_PAIRINGS: usize = 9;
@@ -442,9 +453,13 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
 type Band = (Point, f32, f32);
 
 /// Whether a band is wider than the widest road
-/// ([`max_width`](crate::Settings::max_width)): there the road meanders ([`meander`]).
+/// ([`max_width`](crate::Settings::max_width)) by [`MEANDER_MARGIN`]: there the road meanders
+/// ([`meander`]).
 fn too_wide(slice: &Slice, band: Option<Band>) -> bool {
-    band.is_some_and(|(_, l, r)| 0.5 * (l + r) > slice.settings().max_width)
+    let settings = slice.settings();
+    band.is_some_and(|(_, l, r)| {
+        0.5 * (l + r) > settings.max_width + MEANDER_MARGIN * settings.road_width
+    })
 }
 
 /// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
@@ -492,9 +507,12 @@ fn band_at(slice: &Slice, plan: &Plan, p: Point, dir: Point, near: &[u16; 4]) ->
 /// ([`max_width`](crate::Settings::max_width)), as it is where MCLs fan apart toward the wall,
 /// in large cells and around long channels, the road fills it with a meander: strokes across
 /// the band, from its right edge to its left edge and back, a road apart, advancing along the
-/// MCL. Emits the strokes along the MCL's move from `a` to `b` (arc lengths `sa`, `sb` of
-/// `len` from the `from` end, materials `ma`, `mb` at its ends), `right_first` the side the
-/// next stroke starts on, `in_meander` set to whether the last sample was a stroke.
+/// MCL. The strokes stand on one grid over the whole MCL (a road apart, evenly), not per move:
+/// an MCL's vertices are mostly nearer each other than a road, and a move shorter than a road
+/// holds one stroke or none. Emits the strokes along the MCL's move from `a` to `b` (arc
+/// lengths `sa`, `sb` of `len` from the `from` end, materials `ma`, `mb` at its ends),
+/// `right_first` the side the next stroke starts on, `in_meander` set to whether the last
+/// sample was a stroke.
 #[allow(clippy::too_many_arguments)]
 fn meander(
     slice: &Slice,
@@ -507,16 +525,31 @@ fn meander(
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
     let w = slice.settings().road_width;
-    let seg = a.dist(b);
-    if seg < w {
+    if len < 1e-6 || (sb - sa).abs() < 1e-9 {
         return Ok(());
     }
+    // Strokes stand a road apart (a little less, evenly) over the whole MCL, at arc lengths
+    // `(k + 1/2) spacing` from its `from` end, whatever the spacing of its vertices: a move
+    // shorter than a road holds one stroke or none, a long one several.
+    let count = libm::ceilf(len / w).max(1.0);
+    let spacing = len / count;
     let dir = b - a;
-    let n = libm::ceilf(seg / w);
-    let spacing = seg / n;
-    for k in 0..n as u32 {
-        let t = (k as f32 + 0.5) / n;
-        let material = along(ma, mb, sa + (sb - sa) * t, len);
+    // The strokes on this move, in walking order: from `sa` (included) toward `sb`.
+    let first = if sb > sa {
+        libm::ceilf(sa / spacing - 0.5)
+    } else {
+        libm::floorf(sa / spacing - 0.5)
+    };
+    let step = if sb > sa { 1.0 } else { -1.0 };
+    let mut k = first;
+    loop {
+        let s = (k + 0.5) * spacing;
+        let inside = if sb > sa { s < sb } else { s > sb };
+        if !inside || k < 0.0 || k >= count {
+            break;
+        }
+        let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
+        let material = along(ma, mb, s, len);
         *in_meander = stroke(
             slice,
             plan,
@@ -528,6 +561,7 @@ fn meander(
             right_first,
             sink,
         )?;
+        k += step;
     }
     Ok(())
 }
@@ -562,9 +596,9 @@ fn stroke(
             .iter()
             .map(|f| q + left_n * (sign * f * reach))
             .find(|&e| {
-                // Room for the stroke, and off every keep-out curve (each feature's own
-                // material's place).
-                slice.clearance(e) >= 0.5 * ws.max(settings.road_width) + 2.0 * EDGE_MARGIN
+                // Room for the stroke off every keep-out curve's strip (each feature's own
+                // material's place, where an arc may run): its edge a road off the feature.
+                slice.clearance(e) >= settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN
                     && !slice.segment_crosses_feature(q, e)
             })
             .unwrap_or(q)
