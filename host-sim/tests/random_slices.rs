@@ -4,8 +4,8 @@
 //! distribution. What holds everywhere today is asserted as the bar: no spill, widths within
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
 //! Coverage and overfill are not yet at the bar (>= 0.97, <= 0.04) on every slice (the spiral's
-//! overfill reaches 0.07, the zigzag's coverage 0.6): the spiral's coverage is guarded at 0.96,
-//! the rest is the benchmark's to report.
+//! overfill reaches 0.07, the zigzag's coverage 0.63): the spiral's coverage is guarded at 0.96,
+//! the zigzag's at 0.85, the rest is the benchmark's to report.
 
 use host_sim::layers::{layer, Fill};
 use host_sim::metrics::{Meter, Options};
@@ -38,6 +38,12 @@ fn default_layers_on_random_slices_as_printed() {
                     .all(|v| v.width >= lo - 6.1e-3 && v.width <= hi),
                 "{what}"
             );
+            if k == 0 {
+                // The zigzag: its meanders fill the bands where MCLs fan apart (0.86-0.97 on
+                // these slices; before the strokes stood on one grid along each MCL, whole
+                // sectors of a fan stayed bare).
+                assert!(m.coverage >= 0.85, "{what}");
+            }
             if k == 1 {
                 // The offset spiral: one road, each feature's own material on its keep-out
                 // curve (the zigzag's is off by up to 0.09 on some many-hole slices: not yet

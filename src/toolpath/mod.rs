@@ -6,6 +6,7 @@
 //! deposits there, and whether the move into it deposits (a road) or travels (valves shut).
 
 pub mod composition;
+mod meander;
 pub mod moves;
 pub mod offset;
 pub mod raster;

@@ -10,6 +10,15 @@
 //! by side on a curve are then spliced into one (two neighbouring arcs swapped crosswise, at
 //! the cost of one short doubled stretch of curve). What still remains separate is reached by
 //! a travel move to the nearest free end, as the paper does for its internal regions.
+//!
+//! Each MCL's road owns half the gap to its neighbouring MCLs either side
+//! (`meander::band_at`) and is as wide as that band up to
+//! [`max_width`](crate::Settings::max_width). Where MCLs fan apart (toward the wall, in large
+//! cells) the band outgrows it, and the road fills the band with a *meander* instead
+//! (`meander::meander`): strokes across the band a road apart, each stroke's ends kept a road
+//! off every keep-out curve (where the arcs run), all still inside the one road. The strokes
+//! lie on one grid along the whole MCL, whatever the spacing of its vertices. The bands, road
+//! widths and meanders are in the sibling module `meander`.
 
 use heapless::Vec;
 
@@ -17,6 +26,7 @@ use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::geometry::{polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::{along, mcl_end_materials};
+use crate::toolpath::meander::{band_at, meander, road_at, too_wide};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice, Target};
 
@@ -30,12 +40,12 @@ const _: () = assert!(CURVES <= u8::MAX as usize);
 /// How far inside the material every road's edge stays, mm: roads along a keep-out curve are
 /// this much narrower than a road each side, so the chords between the curve's points (whose
 /// sagitta cuts a few µm into the keep-out band) do not reach into a feature.
-const EDGE_MARGIN: f32 = 3e-3;
+pub(super) const EDGE_MARGIN: f32 = 3e-3;
 /// Where the first and the last move of an MCL get extra vertices, road widths from its end:
 /// the road narrows to a road width at a keep-out curve but may be wider just off it, so the
 /// width follows the clearance there instead of tapering over the whole move.
 const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
-const NONE: u16 = u16::MAX;
+pub(super) const NONE: u16 = u16::MAX;
 /// Up to this many curves with an even number of ends, every combination of their pairings
 /// is tried (every slice of up to 8 holes); beyond, pairings are improved one curve at a time.
 const EXHAUSTIVE_PAIRINGS: usize = 9;
@@ -435,194 +445,6 @@ fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
         }
     }
     out
-}
-
-/// The band a road along an MCL owns at a point ([`band_at`]): the unit normal to the left of
-/// the MCL, and the distances to the neighbouring MCL on the left and on the right.
-type Band = (Point, f32, f32);
-
-/// Whether a band is wider than the widest road
-/// ([`max_width`](crate::Settings::max_width)): there the road meanders ([`meander`]).
-fn too_wide(slice: &Slice, band: Option<Band>) -> bool {
-    band.is_some_and(|(_, l, r)| 0.5 * (l + r) > slice.settings().max_width)
-}
-
-/// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
-/// the MCL and the distances to the nearest neighbouring MCL on the left and on the right (a
-/// side without a neighbour mirrors the other); the road owns half of each gap. `None` where
-/// `dir` is degenerate.
-fn band_at(slice: &Slice, plan: &Plan, p: Point, dir: Point, near: &[u16; 4]) -> Option<Band> {
-    let w = slice.settings().road_width;
-    let len = dir.norm();
-    if len < 1e-6 {
-        return None;
-    }
-    // Unit normal to the left of the MCL.
-    let left_n = Point::new(-dir.y / len, dir.x / len);
-    let (mut left, mut right) = (f32::INFINITY, f32::INFINITY);
-    for (k, &m) in near.iter().enumerate() {
-        if m == NONE || near[..k].contains(&m) {
-            continue;
-        }
-        let other = plan.points(&plan.mcls[m as usize]);
-        let mut best = (f32::INFINITY, Point::new(0.0, 0.0));
-        for seg in other.windows(2) {
-            let (q, _) = polyline::closest_on_segment(seg[0], seg[1], p);
-            let d = q.dist(p);
-            if d < best.0 {
-                best = (d, q);
-            }
-        }
-        if left_n.dot(best.1 - p) > 0.0 {
-            left = left.min(best.0);
-        } else {
-            right = right.min(best.0);
-        }
-    }
-    let (left, right) = match (left.is_finite(), right.is_finite()) {
-        (true, true) => (left, right),
-        (true, false) => (left, left),
-        (false, true) => (right, right),
-        (false, false) => (w, w),
-    };
-    Some((left_n, left, right))
-}
-
-/// Where the band an MCL's road owns ([`band_at`]) is wider than the widest road
-/// ([`max_width`](crate::Settings::max_width)), as it is where MCLs fan apart toward the wall,
-/// in large cells and around long channels, the road fills it with a meander: strokes across
-/// the band, from its right edge to its left edge and back, a road apart, advancing along the
-/// MCL. Emits the strokes along the MCL's move from `a` to `b` (arc lengths `sa`, `sb` of
-/// `len` from the `from` end, materials `ma`, `mb` at its ends), `right_first` the side the
-/// next stroke starts on, `in_meander` set to whether the last sample was a stroke.
-#[allow(clippy::too_many_arguments)]
-fn meander(
-    slice: &Slice,
-    plan: &Plan,
-    (a, b): (Point, Point),
-    (sa, sb, len): (f32, f32, f32),
-    (ma, mb): (&crate::Material, &crate::Material),
-    near: &[u16; 4],
-    (right_first, in_meander): (&mut bool, &mut bool),
-    sink: &mut impl PathSink,
-) -> Result<(), Error> {
-    let w = slice.settings().road_width;
-    let seg = a.dist(b);
-    if seg < w {
-        return Ok(());
-    }
-    let dir = b - a;
-    let n = libm::ceilf(seg / w);
-    let spacing = seg / n;
-    for k in 0..n as u32 {
-        let t = (k as f32 + 0.5) / n;
-        let material = along(ma, mb, sa + (sb - sa) * t, len);
-        *in_meander = stroke(
-            slice,
-            plan,
-            a.lerp(b, t),
-            dir,
-            spacing,
-            material,
-            near,
-            right_first,
-            sink,
-        )?;
-    }
-    Ok(())
-}
-
-/// One stroke of a [`meander`] across the band at `q` (the MCL's direction `dir`), `spacing`
-/// from the last, if the band there is wider than the widest road: from the side
-/// `right_first` names to the other, which the next stroke then starts from. Returns whether
-/// the band is that wide (whether `q` belongs to a meander).
-#[allow(clippy::too_many_arguments)]
-fn stroke(
-    slice: &Slice,
-    plan: &Plan,
-    q: Point,
-    dir: Point,
-    spacing: f32,
-    material: crate::Material,
-    near: &[u16; 4],
-    right_first: &mut bool,
-    sink: &mut impl PathSink,
-) -> Result<bool, Error> {
-    let settings = slice.settings();
-    let band = band_at(slice, plan, q, dir, near);
-    let Some((left_n, left, right)) = band.filter(|_| too_wide(slice, band)) else {
-        return Ok(false);
-    };
-    let ws = spacing.max(settings.min_width);
-    // Each side as far out as the band reaches, pulled back toward the MCL where the
-    // stroke would leave the region (the band of an MCL whose neighbour lies beyond a
-    // feature, a pinch).
-    let side = |reach: f32, sign: f32| {
-        [1.0f32, 0.75, 0.5, 0.25, 0.0]
-            .iter()
-            .map(|f| q + left_n * (sign * f * reach))
-            .find(|&e| {
-                // Room for the stroke, and off every keep-out curve (each feature's own
-                // material's place).
-                slice.clearance(e) >= 0.5 * ws.max(settings.road_width) + 2.0 * EDGE_MARGIN
-                    && !slice.segment_crosses_feature(q, e)
-            })
-            .unwrap_or(q)
-    };
-    let sides = [
-        side((0.5 * right - 0.5 * ws).max(0.0), -1.0),
-        side((0.5 * left - 0.5 * ws).max(0.0), 1.0),
-    ];
-    let order = if *right_first { [0, 1] } else { [1, 0] };
-    for k in order {
-        emit_move(
-            slice,
-            sink,
-            Vertex {
-                at: sides[k],
-                material,
-                width: ws,
-                deposit: true,
-            },
-        )?;
-    }
-    *right_first = !*right_first;
-    Ok(true)
-}
-
-/// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
-///
-/// The road covers its share of the gaps to the nearest neighbouring road on either side
-/// (distances `l` and `r` of its band): from half-way to the left one to half-way to
-/// the right one. So it is `(l + r) / 2` wide and its centre lies `(r - l) / 4` toward the
-/// wider gap; two neighbours then meet half-way between their MCLs where MCLs fan out or crowd
-/// in, without gap or overlap. The width stays within the slice's
-/// [`min_width`](crate::Settings::min_width) .. [`max_width`](crate::Settings::max_width) and
-/// at most twice the point's clearance from the features, less [`EDGE_MARGIN`] each side (the
-/// shift is left out where it would come nearer a feature than half the narrowest road); the
-/// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
-/// where they are and are at most a road width wide, so nothing spills. `band` is the band
-/// the road owns at `p` ([`band_at`]).
-fn road_at(slice: &Slice, p: Point, end: bool, band: Option<Band>) -> (Point, f32) {
-    let settings = slice.settings();
-    let w = settings.road_width;
-    let Some((left_n, left, right)) = band else {
-        return (p, w);
-    };
-    let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
-    let cap = |q: Point| 2.0 * (slice.clearance(q) - EDGE_MARGIN);
-    if end {
-        return (p, width.min(w - 2.0 * EDGE_MARGIN));
-    }
-    let shifted = p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width);
-    // The shift toward the wider gap may bring the road nearer a feature than half the
-    // narrowest road: then it stays on its MCL.
-    let at = if cap(shifted) >= settings.min_width {
-        shifted
-    } else {
-        p
-    };
-    (at, width.min(cap(at)))
 }
 
 /// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
