@@ -10,7 +10,7 @@
 //! [`Machine::emergency_stop`] from it directly.
 
 use super::config::{PrinterConfig, PrinterError, AXES, SEGMENT_RING};
-use super::planner::{BlockMaker, Planner};
+use super::planner::{Block, BlockMaker, OutOfRange, Planner};
 use super::stepper::{SegmentGen, StepTimer, Stepper, Ticks};
 use super::valve::Valves;
 use super::Board;
@@ -186,24 +186,23 @@ impl<const N: usize> Machine<N> {
                 return Err(Refused::Channel { channel: c as u8 });
             }
         }
-        match self.maker.from_move(m, z) {
-            Err(_) => Err(Refused::OutOfRange),
-            Ok(None) => Ok(()),
-            Ok(Some(b)) => {
-                self.planner.push(b).map_err(|_| Refused::Full)?;
-                self.maker.commit(&b);
-                Ok(())
-            }
-        }
+        let block = self.maker.from_move(m, z);
+        self.queue(block)
     }
 
     /// Queues a travel move to `to` (mm).
     pub fn travel_to(&mut self, to: [f32; AXES]) -> Result<(), Refused> {
         self.check_accepting()?;
-        match self
+        let block = self
             .maker
-            .block(to, self.cfg.travel_speed, 0.0, [0.0; 4], false)
-        {
+            .block(to, self.cfg.travel_speed, 0.0, [0.0; 4], false);
+        self.queue(block)
+    }
+
+    /// Queues a block the maker made (none for a move shorter than a step), and moves the
+    /// maker's position on only once the look-ahead took it.
+    fn queue(&mut self, block: Result<Option<Block>, OutOfRange>) -> Result<(), Refused> {
+        match block {
             Err(_) => Err(Refused::OutOfRange),
             Ok(None) => Ok(()),
             Ok(Some(b)) => {
