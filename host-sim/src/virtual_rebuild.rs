@@ -24,6 +24,8 @@ pub struct Rebuild {
     /// so that where it crawls (into a hairpin) the width is not a volume over a vanishing
     /// length.
     pub min_length_mm: f32,
+    /// The stretch of path a depositing move's width is taken over, mm (see [`rebuild`]).
+    pub smooth_mm: f32,
 }
 
 impl Rebuild {
@@ -33,7 +35,8 @@ impl Rebuild {
         Rebuild {
             window_s: 0.001,
             min_width_mm: 0.1 * road_width,
-            min_length_mm: 0.1 * road_width,
+            min_length_mm: 0.05 * road_width,
+            smooth_mm: 0.25 * road_width,
         }
     }
 }
@@ -286,7 +289,7 @@ pub fn rebuild(cfg: &PrinterConfig, trace: &Trace, how: &Rebuild) -> Rebuilt {
         }
         Point::new(out[0] as f32, out[1] as f32)
     };
-    let mut moves = Vec::with_capacity(n / 4 + 16);
+    let mut moves: Vec<Piece> = Vec::with_capacity(n / 4 + 16);
     let mut a = position(0.0);
     let mut v0 = [0.0f64; CHANNELS];
     // Volume delivered while the nozzle stood at `a`.
@@ -342,15 +345,66 @@ pub fn rebuild(cfg: &PrinterConfig, trace: &Trace, how: &Rebuild) -> Rebuilt {
         fig.volume_mm3[c] = f.volume_until(end_s);
     }
     Rebuilt {
-        moves,
+        moves: smooth(&moves, h, how.smooth_mm as f64, how.min_width_mm),
         figures: fig,
     }
+}
+
+/// A rebuilt piece: its move (width from its own volume), its length along the nozzle's way
+/// (0 for a disc) and the volume per channel it received.
+type Piece = (Move, f64, [f64; CHANNELS]);
+
+/// The pieces' moves, each depositing piece's width taken over the `span` mm of path centred
+/// on it (within its run of depositing pieces between stops): the volume over that stretch
+/// / (its length x `h`). A piece alone carries the step quantisation of its length and the
+/// segment timing of its volume; over a fraction of a road width they average out.
+fn smooth(pieces: &[Piece], h: f64, span: f64, min_width: f32) -> Vec<Move> {
+    let mut out: Vec<Move> = pieces.iter().map(|p| p.0).collect();
+    let mut i = 0;
+    while i < pieces.len() {
+        if !(pieces[i].0.deposit && pieces[i].1 > 0.0) {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j < pieces.len() && pieces[j].0.deposit && pieces[j].1 > 0.0 {
+            j += 1;
+        }
+        // Run i..j: arc length at each piece's start, and the volume before it.
+        let run = &pieces[i..j];
+        let mut s = Vec::with_capacity(run.len() + 1);
+        let mut v = Vec::with_capacity(run.len() + 1);
+        s.push(0.0);
+        v.push(0.0);
+        for p in run {
+            s.push(s.last().copied().unwrap_or(0.0) + p.1);
+            v.push(v.last().copied().unwrap_or(0.0) + p.2.iter().sum::<f64>());
+        }
+        let (mut lo, mut hi) = (0, 0);
+        for k in 0..run.len() {
+            let mid = 0.5 * (s[k] + s[k + 1]);
+            while s[lo + 1] < mid - 0.5 * span {
+                lo += 1;
+            }
+            while hi < run.len() && s[hi] < mid + 0.5 * span {
+                hi += 1;
+            }
+            let hi = hi.max(k + 1);
+            let len = s[hi] - s[lo];
+            let width = ((v[hi] - v[lo]) / (len * h)) as f32;
+            let m = &mut out[i + k];
+            m.deposit = width >= min_width;
+            m.width = if m.deposit { width } else { 0.0 };
+        }
+        i = j;
+    }
+    out
 }
 
 /// Lays a piece of path `from` -> `to` (`len` mm along the nozzle's way) that received `v`
 /// mm^3: one move of width `v / (len x h)`, travel if narrower than `min_width`.
 fn push_piece(
-    moves: &mut Vec<Move>,
+    moves: &mut Vec<Piece>,
     from: Point,
     to: Point,
     len: f64,
@@ -361,13 +415,14 @@ fn push_piece(
     let volume: f64 = v.iter().sum();
     let width = (volume / (len * h)) as f32;
     let deposit = width >= min_width;
-    moves.push(Move {
+    let m = Move {
         from,
         to,
         width: if deposit { width } else { 0.0 },
         material: mix(v),
         deposit,
-    });
+    };
+    moves.push((m, len, *v));
 }
 
 /// The channels' shares of `dv` (all 0 if nothing was delivered).
@@ -385,7 +440,7 @@ fn mix(dv: &[f64; CHANNELS]) -> [f32; CHANNELS] {
 /// Lays the volume delivered while the nozzle stood at `at` as a disc of that volume (a
 /// zero-length move), if it is as wide as a bead.
 fn flush_disc(
-    moves: &mut Vec<Move>,
+    moves: &mut Vec<Piece>,
     at: Point,
     standing: &mut [f64; CHANNELS],
     h: f64,
@@ -395,13 +450,14 @@ fn flush_disc(
     if volume > 0.0 {
         let width = (4.0 * volume / (std::f64::consts::PI * h)).sqrt() as f32;
         if width >= min_width {
-            moves.push(Move {
+            let m = Move {
                 from: at,
                 to: at,
                 width,
                 material: mix(standing),
                 deposit: true,
-            });
+            };
+            moves.push((m, 0.0, *standing));
         }
     }
     *standing = [0.0; CHANNELS];
