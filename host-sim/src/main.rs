@@ -471,7 +471,7 @@ fn run_simulation(
         )?;
         let f = &s.figures;
         println!(
-            "layer {} ({}): {:.1} s; steps x {} y {} z {} ({} / {} / {} pulses), fastest {:.0} Hz, shortest pulse {} ticks; valve openings {:?}, open {:.1?} s",
+            "layer {} ({}): {:.1} s; steps x {} y {} z {} ({} / {} / {} pulses), fastest {:.0} Hz, shortest pulse {} ticks; valve openings {:?} (all shut -> any open {}), open {:.1?} s",
             l.index,
             l.pattern.name(),
             f.print_time_s,
@@ -484,6 +484,7 @@ fn run_simulation(
             f.max_step_rate_hz,
             f.min_pulse_ticks,
             &f.valve_openings[..channels],
+            f.any_openings,
             &f.valve_open_s[..channels],
         );
         println!(

@@ -106,12 +106,21 @@ fn ideal_valves() -> PrinterConfig {
     cfg
 }
 
-/// With an ideal valve (no dead time, no lag) the valves open once per road.
+/// With an ideal valve (no dead time, no lag), and with the default 20 ms dead time but no
+/// lag (the core commands it ahead exactly), the valves open once per road.
 #[test]
-fn with_ideal_valves_each_road_opens_the_valves_once() {
-    let cfg = ideal_valves();
-    for (what, s) in simulate_all(&cfg) {
-        check_steps(&cfg, &what, &s);
+fn without_a_lag_each_road_opens_the_valves_once() {
+    let ideal = ideal_valves();
+    let mut dead = ideal.clone();
+    for c in &mut dead.channel {
+        c.dead_time_s = 0.02;
+    }
+    for (cfg, what, s) in simulate_all(&ideal)
+        .into_iter()
+        .map(|(w, s)| (&ideal, w, s))
+        .chain(simulate_all(&dead).into_iter().map(|(w, s)| (&dead, w, s)))
+    {
+        check_steps(cfg, &what, &s);
         assert_eq!(s.simulated.starts, s.planned.starts, "{what}");
         assert_eq!(s.figures.any_openings, s.planned.starts, "{what}");
         assert!(
