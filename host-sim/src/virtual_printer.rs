@@ -18,10 +18,13 @@
 //!   the [`ChannelConfig`](hollowpath::motion::ChannelConfig)), integrated exactly between duty
 //!   changes (the PWM's pulsing within a period is not modelled: its mean is the curve's
 //!   flow);
-//! * per time window ([`Rebuild::window_s`], 1 ms by default, the segment length) one
-//!   constant-width [`Move`] from where the nozzle was to where it is: width = the volume the
-//!   channels delivered in the window / (the distance moved x the layer height), composition =
-//!   the channels' shares of that volume, depositing where the width is at least
+//! * the path cut into 1 ms windows ([`Rebuild::window_s`]), gathered into constant-width
+//!   [`Move`]s of at least [`Rebuild::min_length_mm`] (0.02 mm for 0.4 mm roads) from where
+//!   the nozzle was to where it is, each axis' position interpolated between its steps; the
+//!   composition is the channels' shares of the volume the move received, and its width the
+//!   volume over the [`Rebuild::smooth_mm`] (0.1 mm) of path centred on it / (that length x
+//!   the layer height), so that neither the step quantisation of a short length nor the
+//!   segment timing of its volume shows as width; a move deposits where the width is at least
 //!   [`Rebuild::min_width_mm`]. Volume delivered while the nozzle stands still is laid as a
 //!   disc of that volume where it stands (a zero-length move) once it moves on.
 //!
