@@ -9,10 +9,14 @@ pub mod layers;
 pub mod metrics;
 pub mod output;
 pub mod preview;
+pub mod printer_file;
 pub mod random_slice;
 pub mod raster;
 pub mod render;
+pub mod simulate;
 pub mod slice_file;
+pub mod virtual_printer;
+pub mod virtual_rebuild;
 
 /// The built-in default slice (the four-hole reference slice, after the paper's Fig. 8).
 pub const DEFAULT_SLICE: &str = REFERENCE_SLICES[0].1;

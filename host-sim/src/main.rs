@@ -8,7 +8,7 @@ use hollowpath::toolpath::composition::BlendedField;
 use hollowpath::toolpath::spiral::ControlFunction;
 use host_sim::layers::{self, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
-use host_sim::{gcode, output, preview, render, slice_file};
+use host_sim::{gcode, output, preview, printer_file, render, simulate, slice_file};
 
 #[derive(Parser)]
 #[command(
@@ -79,6 +79,24 @@ enum Command {
         /// Also write Marlin G-code here.
         #[arg(long)]
         gcode: Option<PathBuf>,
+    },
+    /// Plan a slice, then run each layer through the printer's motion code on a virtual
+    /// printer (virtual pins, virtual clock): DIR/simulation.json (per layer the metrics as
+    /// planned and as rebuilt from the pin trace alone, steps, valve openings and open time,
+    /// the fastest step rate, the print time) and DIR/layer-K-simulated.png (the rebuilt
+    /// deposition: bare red, twice blue, spilt black).
+    Simulate {
+        /// The slice file (JSON, see SLICE_FORMAT.md).
+        slice: PathBuf,
+        /// The printer file (JSON; omitted keys take the default pneumatic printer's values).
+        #[arg(long)]
+        printer: Option<PathBuf>,
+        /// Number of layers (zigzag, offset spiral, zigzag, ...).
+        #[arg(long, default_value_t = 2, value_parser = layer_count)]
+        layers: usize,
+        /// Output directory.
+        #[arg(long, default_value = "out/sim")]
+        out: PathBuf,
     },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
     /// G-code, and a metrics table against the raster baseline.
@@ -221,6 +239,24 @@ fn execute(cli: Cli) -> ExitCode {
                     false,
                     Some(&slice),
                 )
+            }),
+        Command::Simulate {
+            slice,
+            printer,
+            layers,
+            out,
+        } => slice_file::load(&slice)
+            .map_err(|e| format!("{}: {e}", slice.display()))
+            .and_then(|f| {
+                let cfg = match &printer {
+                    Some(p) => {
+                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
+                    }
+                    None => hollowpath::motion::PrinterConfig::default(),
+                };
+                cfg.check_slice(&f.slice)
+                    .map_err(|e| format!("printer and slice: {e}"))?;
+                run_simulation(&f, &cfg, &out, layers, &slice)
             }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
@@ -399,6 +435,89 @@ fn run(
         gcode_path
             .map(|g| format!(", {}", g.display()))
             .unwrap_or_default()
+    );
+    Ok(())
+}
+
+fn run_simulation(
+    file: &slice_file::SliceFile,
+    cfg: &hollowpath::motion::PrinterConfig,
+    out: &Path,
+    count: usize,
+    input: &Path,
+) -> Result<(), String> {
+    let mut staged = Staged::new(Some(input));
+    let slice = &file.slice;
+    let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
+    let plan = planner.last_plan();
+    hollowpath::verify::verify(slice, plan)
+        .map_err(|v| format!("the plan failed its own check ({v:?}); please report this slice"))?;
+    let built = layers::layers(slice, plan, Fill::Offset, count)
+        .map_err(|e| format!("layers failed: {e}"))?;
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let field = BlendedField::new(slice, plan);
+    let field_fn = |p| field.at(p);
+    let (lo, hi) = slice.wall().bbox();
+    let area = ((hi.x - lo.x + 2.0) * (hi.y - lo.y + 2.0)) as f64;
+    let cell = (host_sim::metrics::CELL_MM as f64).max((area / 2.0e7).sqrt()) as f32;
+    let mut meter = Meter::new(slice, Options::with_cell(cell));
+    let channels = cfg.channels().len();
+    let road = slice.settings().road_width;
+    let mut docs = Vec::new();
+    for l in &built {
+        let s = simulate::simulate_layer(cfg, l, &mut meter, road, &field_fn)
+            .map_err(|e| format!("layer {}: {e}", l.index))?;
+        staged.write(
+            &out.join(format!("layer-{}-simulated.png", l.index)),
+            &preview::deposit_png(meter.raster()),
+        )?;
+        let f = &s.figures;
+        println!(
+            "layer {} ({}): {:.1} s; steps x {} y {} z {} ({} / {} / {} pulses), fastest {:.0} Hz, shortest pulse {} ticks; valve openings {:?} (all shut -> any open {}), open {:.1?} s",
+            l.index,
+            l.pattern.name(),
+            f.print_time_s,
+            f.net_steps[0],
+            f.net_steps[1],
+            f.net_steps[2],
+            f.pulses[0],
+            f.pulses[1],
+            f.pulses[2],
+            f.max_step_rate_hz,
+            f.min_pulse_ticks,
+            &f.valve_openings[..channels],
+            f.any_openings,
+            &f.valve_open_s[..channels],
+        );
+        println!(
+            "    planned   starts {:>4} coverage {:.4} overfill {:.4} spill {:.4}\n    simulated starts {:>4} coverage {:.4} overfill {:.4} spill {:.4}",
+            s.planned.starts,
+            s.planned.coverage,
+            s.planned.overfill,
+            s.planned.spill,
+            s.simulated.starts,
+            s.simulated.coverage,
+            s.simulated.overfill,
+            s.simulated.spill,
+        );
+        docs.push(simulate::layer_json(&s, channels).map_err(|e| e.to_string())?);
+    }
+    let name = if file.name.is_empty() {
+        "slice"
+    } else {
+        &file.name
+    };
+    let doc = serde_json::json!({ "slice": name, "layers": docs });
+    staged.write(
+        &out.join("simulation.json"),
+        serde_json::to_string_pretty(&doc)
+            .map_err(|e| e.to_string())?
+            .as_bytes(),
+    )?;
+    staged.commit()?;
+    println!(
+        "wrote {}/simulation.json, layer-K-simulated.png",
+        out.display()
     );
     Ok(())
 }

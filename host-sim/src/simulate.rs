@@ -1,0 +1,93 @@
+//! `hollowpath simulate`: each layer's moves run through the core's machine on the virtual
+//! printer, and the layer measured twice with one [`Meter`]: as planned, and as rebuilt from
+//! the pin trace.
+
+use hollowpath::geometry::Point;
+use hollowpath::motion::PrinterConfig;
+use hollowpath::toolpath::moves::Move;
+use hollowpath::Material;
+use serde_json::{json, Value};
+
+use crate::layers::Layer;
+use crate::metrics::{planned_moves, LayerMetrics, Meter};
+use crate::virtual_printer::{rebuild, run_layer, Rebuild, SimError, TraceFigures};
+
+/// One simulated layer.
+#[derive(Clone, Debug)]
+pub struct SimulatedLayer {
+    /// The layer index.
+    pub index: usize,
+    /// Measured from the layer's path, as printed ([`Meter::measure`]).
+    pub planned: LayerMetrics,
+    /// Measured from the moves rebuilt from the pin trace.
+    pub simulated: LayerMetrics,
+    /// The trace's figures.
+    pub figures: TraceFigures,
+    /// The planned moves from home (a travel to the first vertex, then the layer's moves).
+    pub planned_moves: Vec<Move>,
+    /// The rebuilt moves.
+    pub rebuilt_moves: Vec<Move>,
+}
+
+/// A layer's moves as the machine is fed them: a travel from home to its first vertex, then
+/// its moves ([`planned_moves`]).
+pub fn machine_moves(cfg: &PrinterConfig, layer: &Layer) -> Vec<Move> {
+    let mut moves = Vec::with_capacity(layer.path.len() + 1);
+    if let Some(first) = layer.path.first() {
+        moves.push(Move {
+            from: Point::new(cfg.home[0], cfg.home[1]),
+            to: first.at,
+            width: first.width,
+            material: first.material,
+            deposit: false,
+        });
+    }
+    moves.extend(planned_moves(&layer.path));
+    moves
+}
+
+/// Runs `layer` on a virtual printer `cfg` (from home, at height `(index + 1) x
+/// layer_height`) and measures it as planned and as rebuilt, both on `meter` (the rebuilt
+/// one last, so the meter's raster holds the simulated deposition afterwards).
+pub fn simulate_layer(
+    cfg: &PrinterConfig,
+    layer: &Layer,
+    meter: &mut Meter,
+    road_width: f32,
+    field: &dyn Fn(Point) -> Option<Material>,
+) -> Result<SimulatedLayer, SimError> {
+    let moves = machine_moves(cfg, layer);
+    let z = (layer.index + 1) as f32 * cfg.layer_height;
+    let trace = run_layer(cfg, &moves, z)?;
+    let rebuilt = rebuild(cfg, &trace, &Rebuild::for_road_width(road_width));
+    drop(trace);
+    let planned = meter.measure(layer.pattern, &layer.path, field);
+    let simulated = meter.measure_moves(layer.pattern, &rebuilt.moves, field);
+    Ok(SimulatedLayer {
+        index: layer.index,
+        planned,
+        simulated,
+        figures: rebuilt.figures,
+        planned_moves: moves,
+        rebuilt_moves: rebuilt.moves,
+    })
+}
+
+/// The layer's entry of `simulation.json`.
+pub fn layer_json(s: &SimulatedLayer, channels: usize) -> Result<Value, serde_json::Error> {
+    let f = &s.figures;
+    Ok(json!({
+        "layer": s.index,
+        "planned": serde_json::to_value(&s.planned)?,
+        "simulated": serde_json::to_value(&s.simulated)?,
+        "steps": {"x": f.net_steps[0], "y": f.net_steps[1], "z": f.net_steps[2]},
+        "pulses": {"x": f.pulses[0], "y": f.pulses[1], "z": f.pulses[2]},
+        "valve_openings": &f.valve_openings[..channels],
+        "valve_open_s": &f.valve_open_s[..channels],
+        "volume_mm3": &f.volume_mm3[..channels],
+        "any_valve_openings": f.any_openings,
+        "max_step_rate_hz": f.max_step_rate_hz,
+        "min_pulse_ticks": f.min_pulse_ticks,
+        "print_time_s": f.print_time_s,
+    }))
+}

