@@ -3,9 +3,10 @@
 //! `cargo bench -p host-sim --bench random` runs the same on 200 slices and prints the
 //! distribution. What holds everywhere today is asserted as the bar: no spill, widths within
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
-//! Coverage and overfill are not yet at the bar (>= 0.97, <= 0.04) on every slice (the spiral's
-//! overfill reaches 0.07, the zigzag's coverage 0.63): the spiral's coverage is guarded at 0.96,
-//! the zigzag's at 0.85, the rest is the benchmark's to report.
+//! The offset spiral's coverage holds the bar (>= 0.97, every one of the benchmark's 200
+//! slices); its overfill is guarded at 0.05 (the bar, 0.04, is exceeded on 5 of 200), the
+//! zigzag's coverage at 0.85 (it reaches 0.63 on the benchmark's slices); the rest is the
+//! benchmark's to report.
 
 use host_sim::layers::{layer, Fill};
 use host_sim::metrics::{Meter, Options};
@@ -47,10 +48,11 @@ fn default_layers_on_random_slices_as_printed() {
             if k == 1 {
                 // The offset spiral: one road, each feature's own material on its keep-out
                 // curve (the zigzag's is off by up to 0.09 on some many-hole slices: not yet
-                // asserted), coverage and overfill near the bar.
+                // asserted), coverage at the bar, overfill near it.
                 assert_eq!(m.starts, 1, "{what}");
                 assert!(m.feature_composition_error < 1e-3, "{what}");
-                assert!(m.coverage >= 0.96, "{what}");
+                assert!(m.coverage >= 0.97, "{what}");
+                assert!(m.overfill <= 0.05, "{what}");
             }
         }
     }
