@@ -363,9 +363,9 @@ pub struct StartNote {
 }
 
 /// Explains every extrusion start of `path` after the first, in `metrics.json`: a break
-/// shorter than two road widths is a move that could not be laid (a pinch narrower than
-/// `min_width`, measured across at the break, or a move that did not fit at its width and was
-/// left out); a longer travel reaches a separate piece, for the layer's reason `note` (the
+/// shorter than two road widths is a move that could not be laid (its straight line crosses a
+/// feature, or a pinch narrower than `min_width`, measured across at the narrowest point of
+/// the break, or a move that did not fit at its width and was left out); a longer travel reaches a separate piece, for the layer's reason `note` (the
 /// generator's account of its pieces and jumps).
 pub fn explain_starts(slice: &Slice, path: &[Vertex], note: &str) -> Vec<StartNote> {
     let s = slice.settings();
@@ -377,10 +377,24 @@ pub fn explain_starts(slice: &Slice, path: &[Vertex], note: &str) -> Vec<StartNo
         let travel: f64 = (pair[0].end..=pair[1].start)
             .map(|k| length(path[k - 1].at, path[k].at))
             .sum();
-        let mid = end.lerp(start, 0.5);
-        let across = 2.0 * slice.wall_clearance(mid).min(slice.nearest_holes(mid).1);
+        // The narrowest room along the break (the straight line the road would have taken).
+        let clearance = |p: Point| slice.wall_clearance(p).min(slice.nearest_holes(p).1);
+        let steps = ((end.dist(start) / (0.25 * s.road_width)).ceil() as usize).max(1);
+        let (mid, room) = (0..=steps)
+            .map(|k| {
+                let p = end.lerp(start, k as f32 / steps as f32);
+                (p, clearance(p))
+            })
+            .fold((end, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        let across = 2.0 * room;
         let why = if travel <= 2.0 * s.road_width as f64 {
-            if across < s.min_width {
+            if room < 0.0 {
+                format!(
+                    "the road's straight line crosses a feature at ({:.2}, {:.2}) and was not \
+                     bent round it",
+                    mid.x, mid.y
+                )
+            } else if across < s.min_width {
                 format!(
                     "a pinch {across:.3} mm across at ({:.2}, {:.2}), narrower than min_width \
                      {:.3} mm: no road fits there",
