@@ -5,6 +5,7 @@
 //! the tests and benchmarks use directly.
 
 pub mod gcode;
+pub mod json_file;
 pub mod layers;
 pub mod metrics;
 pub mod output;

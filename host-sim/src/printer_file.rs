@@ -30,6 +30,8 @@ use hollowpath::motion::PrinterError;
 use hollowpath::motion::{AxisConfig, ChannelConfig, CurvePoint, Endstop, PrinterConfig};
 use serde_json::{Map, Value};
 
+use crate::json_file::{self, kind, ReadError};
+
 /// The largest printer file read.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
 
@@ -45,6 +47,8 @@ pub enum PrinterFileError {
     Key(String, String),
     /// The printer itself is invalid (the core's verdict, which names the key).
     Printer(PrinterError),
+    /// The file is larger than the limit (path, limit in bytes).
+    TooLarge(String, u64),
 }
 
 impl fmt::Display for PrinterFileError {
@@ -60,6 +64,13 @@ impl fmt::Display for PrinterFileError {
             PrinterFileError::Json(e, None) => write!(f, "malformed printer file: {e}"),
             PrinterFileError::Key(key, what) => write!(f, "{key}: {what}"),
             PrinterFileError::Printer(e) => write!(f, "{e}"),
+            PrinterFileError::TooLarge(p, limit) => {
+                write!(
+                    f,
+                    "printer file {p} is larger than {}",
+                    json_file::size(*limit)
+                )
+            }
         }
     }
 }
@@ -68,13 +79,18 @@ impl std::error::Error for PrinterFileError {}
 
 /// Reads a printer file.
 pub fn load(path: &Path) -> Result<PrinterConfig, PrinterFileError> {
-    use std::io::Read;
     let shown = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| PrinterFileError::Io(shown.clone(), e))?;
-    let mut text = String::new();
-    file.take(MAX_FILE_BYTES)
-        .read_to_string(&mut text)
-        .map_err(|e| PrinterFileError::Io(shown, e))?;
+    let text = json_file::read_text(path, MAX_FILE_BYTES).map_err(|e| match e {
+        ReadError::Io(e) => PrinterFileError::Io(shown.clone(), e),
+        ReadError::TooLarge(limit) => PrinterFileError::TooLarge(shown.clone(), limit),
+        ReadError::NotUtf8(at) => PrinterFileError::Io(
+            shown.clone(),
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("not UTF-8 text (invalid byte at offset {at})"),
+            ),
+        ),
+    })?;
     parse(&text)
 }
 
@@ -207,17 +223,6 @@ const CHANNEL_KEYS: &[&str] = &[
 
 fn key_err(key: &str, what: String) -> PrinterFileError {
     PrinterFileError::Key(key.to_string(), what)
-}
-
-fn kind(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "a boolean",
-        Value::Number(_) => "a number",
-        Value::String(_) => "a string",
-        Value::Array(_) => "a list",
-        Value::Object(_) => "an object",
-    }
 }
 
 /// The object `v` (at `key`), every key of it one of `allowed`.

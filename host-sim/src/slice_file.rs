@@ -2,13 +2,14 @@
 //! validated [`Slice`].
 
 use std::fmt;
-use std::io::Read;
 use std::path::Path;
 
 use hollowpath::config::CHANNELS;
 use hollowpath::geometry::Point;
 use hollowpath::{FeatureId, Material, SettingId, Settings, Slice};
 use serde_json::{Map, Value};
+
+use crate::json_file::{self, kind, ReadError};
 
 /// Why a slice file could not be turned into a slice.
 #[derive(Debug)]
@@ -39,11 +40,11 @@ impl fmt::Display for SliceFileError {
             SliceFileError::Format(s) => f.write_str(s),
             SliceFileError::Slice(e) => write!(f, "invalid slice: {e}"),
             SliceFileError::TooLarge(path, limit) => {
-                if limit % (1 << 20) == 0 {
-                    write!(f, "slice file {path} is larger than {} MiB", limit >> 20)
-                } else {
-                    write!(f, "slice file {path} is larger than {limit} bytes")
-                }
+                write!(
+                    f,
+                    "slice file {path} is larger than {}",
+                    json_file::size(*limit)
+                )
             }
         }
     }
@@ -82,19 +83,12 @@ pub fn load(path: &Path) -> Result<SliceFile, SliceFileError> {
 /// Reads and validates a slice file of at most `limit` bytes, reading no more than that.
 pub fn load_with_limit(path: &Path, limit: u64) -> Result<SliceFile, SliceFileError> {
     let shown = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| SliceFileError::Io(shown.clone(), e))?;
-    let mut bytes = Vec::new();
-    file.take(limit.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(|e| SliceFileError::Io(shown.clone(), e))?;
-    if bytes.len() as u64 > limit {
-        return Err(SliceFileError::TooLarge(shown, limit));
-    }
-    let text = String::from_utf8(bytes).map_err(|e| {
-        SliceFileError::Format(format!(
-            "slice file {shown} is not UTF-8 text (invalid byte at offset {})",
-            e.utf8_error().valid_up_to()
-        ))
+    let text = json_file::read_text(path, limit).map_err(|e| match e {
+        ReadError::Io(e) => SliceFileError::Io(shown.clone(), e),
+        ReadError::TooLarge(limit) => SliceFileError::TooLarge(shown.clone(), limit),
+        ReadError::NotUtf8(at) => SliceFileError::Format(format!(
+            "slice file {shown} is not UTF-8 text (invalid byte at offset {at})"
+        )),
     })?;
     parse(&text)
 }
@@ -114,17 +108,6 @@ const SETTING_KEYS: &[&str] = &[
     "max_width",
     "simplify_tolerance",
 ];
-
-fn kind(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "a boolean",
-        Value::Number(_) => "a number",
-        Value::String(_) => "a string",
-        Value::Array(_) => "a list",
-        Value::Object(_) => "an object",
-    }
-}
 
 fn format_err(s: String) -> SliceFileError {
     SliceFileError::Format(s)

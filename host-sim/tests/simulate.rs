@@ -324,3 +324,23 @@ fn a_printer_file_sets_every_key_and_keeps_the_defaults() {
         (0.25, [1.0, 2.0, 0.0], false, 2_000_000)
     );
 }
+
+/// A printer file longer than the limit is refused as too large, never read truncated (and
+/// then reported as malformed JSON).
+#[test]
+fn an_oversized_printer_file_is_refused_as_too_large() {
+    let dir = std::env::temp_dir().join(format!("hollowpath-printer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("big.json");
+    let pad = " ".repeat(printer_file::MAX_FILE_BYTES as usize);
+    std::fs::write(&path, format!("{{{pad}}}")).unwrap();
+    let err = printer_file::load(&path).unwrap_err();
+    assert!(
+        matches!(err, printer_file::PrinterFileError::TooLarge(..)),
+        "{err}"
+    );
+    assert!(err.to_string().contains("larger than 1 MiB"), "{err}");
+    std::fs::write(&path, "{}").unwrap();
+    assert!(printer_file::load(&path).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
