@@ -270,13 +270,16 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
         .expect("encoding an in-memory PNG cannot fail")
 }
 
-/// Colours of [`deposit_png`]: printable ground left bare, covered once, covered twice or
-/// more, deposit in a hollow feature or outside the wall, and the void that stays empty.
-const BARE: [u8; 3] = [0xe0, 0x20, 0x20];
-const ONCE: [u8; 3] = [0xe8, 0xe8, 0xe8];
-const TWICE: [u8; 3] = [0x20, 0x50, 0xd0];
-const SPILT: [u8; 3] = [0x00, 0x00, 0x00];
-const VOID: [u8; 3] = [0xff, 0xff, 0xff];
+/// [`deposit_png`]'s colour of printable ground left bare.
+pub const BARE: [u8; 3] = [0xe0, 0x20, 0x20];
+/// [`deposit_png`]'s colour of ground covered once.
+pub const ONCE: [u8; 3] = [0xe8, 0xe8, 0xe8];
+/// [`deposit_png`]'s colour of ground covered twice or more (overfill).
+pub const TWICE: [u8; 3] = [0x20, 0x50, 0xd0];
+/// [`deposit_png`]'s colour of deposit in a hollow feature or outside the wall (spill).
+pub const SPILT: [u8; 3] = [0x00, 0x00, 0x00];
+/// [`deposit_png`]'s colour of the void that stays empty.
+pub const VOID: [u8; 3] = [0xff, 0xff, 0xff];
 
 /// Where the last layer measured on `raster` left ground bare (red), covered it once (grey),
 /// twice or more (blue), and deposited where no material belongs (black), one pixel per

@@ -232,8 +232,8 @@ fn the_deposit_map_shows_the_layer_metrics() {
                     .count() as f64
             };
             let printable = raster.printable_cells() as f64;
-            let bare = count([0xe0, 0x20, 0x20]) / printable;
-            let twice = count([0x20, 0x50, 0xd0]) / printable;
+            let bare = count(host_sim::preview::BARE) / printable;
+            let twice = count(host_sim::preview::TWICE) / printable;
             assert!(bare > 0.0 && twice > 0.0, "layer {k}: {bare} {twice}");
             assert!(
                 (bare - (1.0 - m.coverage)).abs() < 1e-9,

@@ -512,16 +512,12 @@ impl Stepper {
                         }
                     }
                     self.last_low = now;
-                    self.phase = if self.left > 0 {
-                        Phase::Tick
+                    let (phase, at) = if self.left > 0 {
+                        (Phase::Tick, self.next_tick)
                     } else {
-                        Phase::SegmentEnd
+                        (Phase::SegmentEnd, self.seg_end)
                     };
-                    let at = if self.left > 0 {
-                        self.next_tick
-                    } else {
-                        self.seg_end
-                    };
+                    self.phase = phase;
                     if before(now, at) {
                         return Ok(Some(at));
                     }
