@@ -216,7 +216,10 @@ fn planner_profiles_respect_limits_and_join_up() {
     let c = cfg();
     let moves = layer_moves();
     let mut maker = hollowpath::motion::BlockMaker::new(&c);
-    let mut planner = Box::new(Planner::<N>::new(c.junction_deviation));
+    let mut planner = Box::new(Planner::<N>::new(
+        c.junction_deviation,
+        c.valve_time_constant(),
+    ));
     let mut popped = Vec::new();
     for m in &moves {
         let Some(b) = maker.from_move(m, Z).unwrap() else {

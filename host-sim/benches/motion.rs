@@ -153,7 +153,10 @@ fn look_ahead(c: &mut Criterion) {
     let cfg = printer();
     let moves = road();
     let mut maker = BlockMaker::new(&cfg);
-    let mut planner = Box::new(Planner::<32>::new(cfg.junction_deviation));
+    let mut planner = Box::new(Planner::<32>::new(
+        cfg.junction_deviation,
+        cfg.valve_time_constant(),
+    ));
     let mut k = 0;
     let mut group = c.benchmark_group("motion");
     group.throughput(Throughput::Elements(1));

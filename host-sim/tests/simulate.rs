@@ -64,12 +64,17 @@ fn check_steps(cfg: &PrinterConfig, what: &str, s: &SimulatedLayer) {
 }
 
 fn check_agreement(what: &str, s: &SimulatedLayer) -> Vec<String> {
+    check_within(what, s, 0.005, 0.0005)
+}
+
+/// Coverage and overfill agree within `tol`, spill within `spill`, starts equal.
+fn check_within(what: &str, s: &SimulatedLayer, tol: f64, spill: f64) -> Vec<String> {
     let (p, q) = (&s.planned, &s.simulated);
     let mut bad = Vec::new();
     for (key, a, b, tol) in [
-        ("coverage", p.coverage, q.coverage, 0.005),
-        ("overfill", p.overfill, q.overfill, 0.005),
-        ("spill", p.spill, q.spill, 0.0005),
+        ("coverage", p.coverage, q.coverage, tol),
+        ("overfill", p.overfill, q.overfill, tol),
+        ("spill", p.spill, q.spill, spill),
     ] {
         if (a - b).abs() > tol {
             bad.push(format!("{what}: {key} planned {a:.4} simulated {b:.4}"));
@@ -145,12 +150,42 @@ fn with_ideal_valves_the_trace_rebuilds_the_planned_layer() {
 
 /// The default pneumatic printer (20 ms dead time, 30 ms lag, compensated by the core).
 #[test]
-#[ignore = "fails (measured): the valve model, not the rebuild (which agrees with ideal valves): overfill +0.005 to +0.011, zigzag spill 0.0026-0.0099, and the valves all shut and reopen at hairpins (94 to 1374 openings for 1 start)"]
+#[ignore = "fails (measured): the spirals agree (overfill +0.002 to +0.005, no spill); the zigzags' overfill +0.001 to +0.008 (vessel_ring: the fan's width steps down move by move faster than a 30 ms lag sheds), spill up to 0.0013, and 2 to 6 valve openings for 1 start"]
 fn on_the_default_printer_simulated_and_planned_metrics_agree() {
     let cfg = PrinterConfig::default();
     let mut bad = Vec::new();
     for (what, s) in simulate_all(&cfg) {
         bad.extend(check_agreement(&what, &s));
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// What holds on the default pneumatic printer today. The look-ahead brakes a depositing
+/// block no faster than the valves shed flow and a dip mid-road holds the valve at its dead
+/// band's edge, so the valves open a handful of times per layer (they shut and reopened at
+/// every hairpin, 94 to 1422 times a layer, before); the spirals agree with the plan within
+/// the bar, the zigzags within 0.01 (the bar is 0.005: see the ignored test above).
+#[test]
+fn on_the_default_printer_the_valves_follow_the_road() {
+    let cfg = PrinterConfig::default();
+    let mut bad = Vec::new();
+    for (what, s) in simulate_all(&cfg) {
+        let zigzag = s.planned.pattern == "zigzag";
+        let (tol, spill) = if zigzag {
+            (0.01, 0.002)
+        } else {
+            (0.005, 0.0005)
+        };
+        let mut found = check_within(&what, &s, tol, spill);
+        // Openings are checked on their own below.
+        found.retain(|m| !m.contains("valve openings") || s.simulated.starts != s.planned.starts);
+        bad.extend(found);
+        if s.figures.any_openings > 8 * s.planned.starts {
+            bad.push(format!(
+                "{what}: {} valve openings for {} starts",
+                s.figures.any_openings, s.planned.starts
+            ));
+        }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }

@@ -258,6 +258,15 @@ impl PrinterConfig {
         &self.channel[..(self.channels as usize).min(CHANNELS)]
     }
 
+    /// The slowest valve's time constant in use, s: depositing moves brake no faster than it
+    /// follows ([`Planner`](super::planner::Planner)).
+    pub fn valve_time_constant(&self) -> f32 {
+        self.channels()
+            .iter()
+            .map(|c| c.time_constant_s)
+            .fold(0.0, f32::max)
+    }
+
     /// Checks every value; the first bad one is named.
     pub fn validate(&self) -> Result<(), PrinterError> {
         if !(MIN_TICK_HZ..=MAX_TICK_HZ).contains(&self.tick_hz) {

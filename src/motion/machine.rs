@@ -112,7 +112,7 @@ impl<const N: usize> Machine<N> {
         let valves = Valves::new(&cfg);
         Ok(Machine {
             maker: BlockMaker::new(&cfg),
-            planner: Planner::new(cfg.junction_deviation),
+            planner: Planner::new(cfg.junction_deviation, cfg.valve_time_constant()),
             gen: SegmentGen::new(&cfg, valves.dwell_segments()),
             stepper: Stepper::new(&cfg),
             valves,

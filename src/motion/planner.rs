@@ -14,6 +14,16 @@
 //! by what can still be braked away, then a forward pass from the head's fixed entry caps each
 //! exit by what can be reached. Each block gets a trapezoid: entry, cruise, exit at constant
 //! acceleration. All math is `f32` through `libm`, deterministic.
+//!
+//! **Braking the valves can follow.** A pneumatic valve sheds flow at most at `q / tau` (its
+//! first-order lag, [`ChannelConfig::time_constant_s`](super::config::ChannelConfig)), and the
+//! flow a depositing block needs is proportional to its speed, so a depositing block may brake
+//! at most at `v / tau`: faster, and the valve command `q + tau dq/dt` goes below zero, the
+//! valve shuts and reopens mid-road and the bead swells into the corner. So a depositing block
+//! that brakes to a corner speed `v1 > 0` brakes at `min(accel, BRAKE_MARGIN v1 / tau)`
+//! ([`Block::decel`]): along its ramp the speed is at least `v1`, so the command stays at
+//! least `(1 - BRAKE_MARGIN) q`. A block that ends at rest (a road's end, a pause, a reversal)
+//! brakes at its full acceleration: there the valves shut anyway.
 
 use super::config::{PrinterConfig, AXES};
 use crate::toolpath::moves::Move;
@@ -38,6 +48,9 @@ pub struct Block {
     pub nominal: f32,
     /// Acceleration along the block, mm/s^2.
     pub accel: f32,
+    /// Deceleration of its braking ramp, mm/s^2: `accel`, or less where the valves could not
+    /// follow (the module's essay).
+    pub decel: f32,
     /// Largest entry speed (the junction with the block before), mm/s.
     pub max_entry: f32,
     /// Entry speed of the profile, mm/s.
@@ -65,6 +78,7 @@ impl Block {
         unit: [0.0; AXES],
         nominal: 0.0,
         accel: 0.0,
+        decel: 0.0,
         max_entry: 0.0,
         entry: 0.0,
         cruise: 0.0,
@@ -77,9 +91,19 @@ impl Block {
 
     /// Its trapezoid.
     pub fn profile(&self) -> Profile {
-        Profile::new(self.entry, self.cruise, self.exit, self.accel, self.length)
+        Profile::new(
+            [self.entry, self.cruise, self.exit],
+            self.accel,
+            self.decel,
+            self.length,
+        )
     }
 }
+
+/// Share of `v / tau` a depositing block brakes at, at most (the module's essay): the valve
+/// command stays at least `1 - BRAKE_MARGIN` of the flow along the ramp, room for the
+/// segments' sampling of the ramp.
+pub const BRAKE_MARGIN: f32 = 0.5;
 
 /// A trapezoidal speed profile along one block.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,6 +113,8 @@ pub struct Profile {
     pub v: [f32; 3],
     /// Acceleration, mm/s^2.
     pub accel: f32,
+    /// Deceleration of the braking ramp, mm/s^2.
+    pub decel: f32,
     /// Length, mm.
     pub length: f32,
     /// Accelerating distance, mm.
@@ -100,13 +126,13 @@ pub struct Profile {
 }
 
 impl Profile {
-    /// The trapezoid from `v0` up to `vc` and down to `v1` over `length` at `accel`; speeds
-    /// that do not fit (rounding) are pulled in so the distances add up.
-    pub fn new(v0: f32, vc: f32, v1: f32, accel: f32, length: f32) -> Profile {
-        let a = accel;
+    /// The trapezoid from `v0` up to `vc` at `accel` and down to `v1` at `decel` over
+    /// `length`; speeds that do not fit (rounding) are pulled in so the distances add up.
+    pub fn new([v0, vc, v1]: [f32; 3], accel: f32, decel: f32, length: f32) -> Profile {
+        let (a, d) = (accel, decel);
         let vc = vc.max(v0).max(v1);
         let mut d_acc = ((vc * vc - v0 * v0) / (2.0 * a)).clamp(0.0, length);
-        let mut d_dec = ((vc * vc - v1 * v1) / (2.0 * a)).clamp(0.0, length);
+        let mut d_dec = ((vc * vc - v1 * v1) / (2.0 * d)).clamp(0.0, length);
         if d_acc + d_dec > length {
             let over = d_acc + d_dec - length;
             // Take the excess off the longer ramp (a rounding-level correction).
@@ -118,11 +144,12 @@ impl Profile {
         }
         let cruise_len = (length - d_acc - d_dec).max(0.0);
         let t_acc = (vc - v0) / a;
-        let t_dec = (vc - v1) / a;
+        let t_dec = (vc - v1) / d;
         let t_cruise = if vc > 0.0 { cruise_len / vc } else { 0.0 };
         Profile {
             v: [v0, vc, v1],
             accel: a,
+            decel: d,
             length,
             d_acc,
             d_dec,
@@ -145,7 +172,7 @@ impl Profile {
             self.d_acc + vc * (t - self.t[0])
         } else {
             let u = (t - self.t[0] - self.t[1]).min(self.t[2]);
-            self.length - self.d_dec + vc * u - 0.5 * a * u * u
+            self.length - self.d_dec + vc * u - 0.5 * self.decel * u * u
         };
         s.clamp(0.0, self.length)
     }
@@ -158,7 +185,7 @@ impl Profile {
         } else if t <= self.t[0] + self.t[1] {
             vc
         } else {
-            (vc - self.accel * (t - self.t[0] - self.t[1])).max(v1)
+            (vc - self.decel * (t - self.t[0] - self.t[1])).max(v1)
         }
     }
 }
@@ -262,6 +289,7 @@ impl BlockMaker {
             unit,
             nominal,
             accel,
+            decel: accel,
             width,
             material,
             deposit,
@@ -316,17 +344,21 @@ pub struct Planner<const N: usize> {
     /// The head's entry speed, fixed when the block before it was taken.
     fixed_entry: f32,
     deviation: f32,
+    /// The slowest valve's time constant, s (0: braking is not limited by the valves).
+    valve_tau: f32,
 }
 
 impl<const N: usize> Planner<N> {
-    /// An empty ring for cornering at `junction_deviation` mm.
-    pub const fn new(junction_deviation: f32) -> Planner<N> {
+    /// An empty ring for cornering at `junction_deviation` mm, depositing blocks braking no
+    /// faster than valves of time constant `valve_tau` s follow (the module's essay).
+    pub const fn new(junction_deviation: f32, valve_tau: f32) -> Planner<N> {
         Planner {
             ring: [Block::EMPTY; N],
             head: 0,
             len: 0,
             fixed_entry: 0.0,
             deviation: junction_deviation,
+            valve_tau,
         }
     }
 
@@ -415,7 +447,7 @@ impl<const N: usize> Planner<N> {
             let mut v = 0.0f32;
             for k in (0..=cand).rev() {
                 let b = &self.ring[self.index(k)];
-                v = libm::sqrtf(v * v + 2.0 * b.accel * b.length);
+                v = libm::sqrtf(v * v + 2.0 * self.decel(b, v) * b.length);
                 if k > 0 {
                     v = v.min(b.max_entry);
                 }
@@ -435,17 +467,27 @@ impl<const N: usize> Planner<N> {
         true
     }
 
+    /// How hard `b` may brake into an exit of `exit` mm/s (the module's essay).
+    fn decel(&self, b: &Block, exit: f32) -> f32 {
+        if b.deposit && exit > 0.0 && self.valve_tau > 0.0 {
+            b.accel.min(BRAKE_MARGIN * exit / self.valve_tau)
+        } else {
+            b.accel
+        }
+    }
+
     /// The reverse and forward passes over the whole ring.
     fn replan(&mut self) {
         // Reverse: `entry` holds the fastest entry from which the rest can still stop.
         let mut next_entry = 0.0f32;
         for k in (0..self.len).rev() {
             let i = self.index(k);
-            let b = &mut self.ring[i];
-            if b.pause_after {
+            if self.ring[i].pause_after {
                 next_entry = 0.0;
             }
-            let brake = libm::sqrtf(next_entry * next_entry + 2.0 * b.accel * b.length);
+            let decel = self.decel(&self.ring[i], next_entry);
+            let b = &mut self.ring[i];
+            let brake = libm::sqrtf(next_entry * next_entry + 2.0 * decel * b.length);
             b.entry = b.max_entry.min(brake);
             next_entry = b.entry;
         }
@@ -459,7 +501,7 @@ impl<const N: usize> Planner<N> {
             } else {
                 0.0
             };
-            let b = &mut self.ring[i];
+            let b = &self.ring[i];
             let entry = if k == 0 { v } else { v.min(b.entry) };
             let reach = libm::sqrtf(entry * entry + 2.0 * b.accel * b.length);
             let exit = if b.pause_after {
@@ -467,10 +509,16 @@ impl<const N: usize> Planner<N> {
             } else {
                 next_bound.min(reach)
             };
-            let peak = libm::sqrtf(b.accel * b.length + 0.5 * (entry * entry + exit * exit));
+            let decel = self.decel(b, exit);
+            let (a, d) = (b.accel, decel);
+            // The peak where the accelerating and braking ramps meet:
+            // (vp^2 - v0^2) / 2a + (vp^2 - v1^2) / 2d = length.
+            let peak2 = (2.0 * a * d * b.length + d * entry * entry + a * exit * exit) / (a + d);
+            let b = &mut self.ring[i];
             b.entry = entry;
             b.exit = exit;
-            b.cruise = b.nominal.min(peak).max(entry).max(exit);
+            b.decel = decel;
+            b.cruise = b.nominal.min(libm::sqrtf(peak2)).max(entry).max(exit);
             v = exit;
         }
     }
@@ -523,7 +571,7 @@ mod tests {
     fn a_full_ring_hands_the_block_back_and_the_tail_can_stop() {
         let pts: std::vec::Vec<(f32, f32)> = (0..10).map(|k| (k as f32, 0.0)).collect();
         let b = blocks(&pts);
-        let mut p = Planner::<4>::new(0.01);
+        let mut p = Planner::<4>::new(0.01, 0.0);
         for blk in &b[..4] {
             p.push(*blk).unwrap();
             assert_eq!(p.get(p.len() - 1).unwrap().exit, 0.0);

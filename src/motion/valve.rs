@@ -18,9 +18,13 @@
 //! whole segments, the slope a central difference. On a ramp that is the same as commanding
 //! `Td + tau` ahead; where the flow turns (braking into a corner, then speeding out) it keeps
 //! the deposit where a plain `Td + tau` advance would smear it. The command is never below 0
-//! (the valve cannot pull material back): braking faster than `v / tau` outruns the valve,
-//! which is why the default acceleration is low. At a road's start a channel opens `lead_s`
-//! earlier still, and at its end shuts `lag_s` earlier.
+//! (the valve cannot pull material back): braking faster than `v / tau` would outrun the
+//! valve, so the look-ahead never brakes a depositing block faster than that into a corner
+//! ([`planner`](super::planner)'s essay). Mid-road (the road still deposits a time constant
+//! on) the command is never below [`HOLD`] of the flow asked for: where the flow steps down
+//! faster than the valve sheds it (a narrower road) the valve dips rather than shutting and
+//! reopening. At a road's end it shuts as early as `q + tau dq/dt` says, and a channel opens
+//! `lead_s` earlier still at a road's start and shuts `lag_s` earlier at its end.
 //!
 //! **Closed.** A road that starts from rest (the first, after travel, after a pause) is
 //! preceded by a dwell as long as the largest advance, so the valves open while the nozzle
@@ -86,9 +90,28 @@ struct Channel {
     dead: usize,
     lead: usize,
     lag: usize,
+    /// Segments of a time constant (at least 1): how far on a road must still deposit for
+    /// a dip in the command to be held at [`HOLD`].
+    hold_horizon: usize,
+    /// The lag's decay over one segment, `exp(-SEGMENT_S / tau)` (0 without a lag), and the
+    /// share of a step's distance its mean over that segment still lies from the target,
+    /// `tau / SEGMENT_S (1 - r)` (0 without a lag).
+    r: f32,
+    g: f32,
+    /// The model of the valve: its flow at the start of the segment commanded next, and the
+    /// last command (mm^3/s, within 0 and full flow).
+    y: f32,
+    last: f32,
     /// The duty last written, in the output's units.
     duty: Option<u16>,
 }
+
+/// The least command mid-road, as a share of the flow asked for. Where the flow asked for
+/// falls faster than the valve sheds it (a narrower road, sharper braking than `v / tau`),
+/// `q + tau dq/dt` goes below 0; shutting the valve there would cost an opening (and, with a
+/// dead band, a restart) for a dip the valve cannot follow anyway. Holding a quarter of the
+/// flow sheds nearly as fast (the lag decays towards the hold instead of 0).
+pub const HOLD: f32 = 0.01;
 
 fn segments(s: f32) -> usize {
     // Validated: at most the look-ahead of SEGMENT_RING segments.
@@ -97,6 +120,13 @@ fn segments(s: f32) -> usize {
 
 impl Channel {
     fn new(cfg: &ChannelConfig) -> Channel {
+        let tau = cfg.time_constant_s;
+        let (r, g) = if tau > 0.0 {
+            let r = libm::expf(-SEGMENT_S / tau);
+            (r, tau / SEGMENT_S * (1.0 - r))
+        } else {
+            (0.0, 0.0)
+        };
         Channel {
             curve: cfg.curve.clone(),
             full_flow: cfg.full_flow,
@@ -104,6 +134,11 @@ impl Channel {
             tau: cfg.time_constant_s,
             lead: segments(cfg.lead_s),
             lag: segments(cfg.lag_s),
+            hold_horizon: segments(cfg.time_constant_s).max(1),
+            r,
+            g,
+            y: 0.0,
+            last: 0.0,
             duty: None,
         }
     }
@@ -123,6 +158,8 @@ pub struct ValveStats {
 #[derive(Clone, Debug)]
 pub struct Valves {
     ch: heapless::Vec<Channel, CHANNELS>,
+    /// The flow the held channels delivered beyond their shares in the segment before.
+    excess_prev: f32,
     /// Figures so far.
     pub stats: ValveStats,
 }
@@ -139,6 +176,7 @@ impl Valves {
         }
         Valves {
             ch,
+            excess_prev: 0.0,
             stats: ValveStats::default(),
         }
     }
@@ -157,41 +195,99 @@ impl Valves {
     }
 
     /// The flow each channel is to be commanded while `current` is stepped, `ring` the
-    /// segments after it (mm^3/s).
+    /// segments after it (mm^3/s). Called once per segment: it advances each channel's model
+    /// of its own valve by the segment that passed.
     pub fn frame<const R: usize>(
-        &self,
+        &mut self,
         current: &Segment,
         ring: &heapless::Deque<Segment, R>,
     ) -> [f32; CHANNELS] {
-        let mut out = [0.0; CHANNELS];
         let (front, back) = ring.as_slices();
-        for (c, ch) in self.ch.iter().enumerate() {
-            // Segment `k` ahead of the current one (0 past the end of what is prepared).
-            let at = |k: usize| -> f32 {
-                let s = match k {
-                    0 => Some(current),
-                    k if k <= front.len() => front.get(k - 1),
-                    k => back.get(k - 1 - front.len()),
-                };
-                s.map_or(0.0, |s| s.flow[c])
+        // Segment `k` ahead of the current one's flow in channel `c` (0 past the end of what
+        // is prepared).
+        let at = |c: usize, k: usize| -> f32 {
+            let s = match k {
+                0 => Some(current),
+                k if k <= front.len() => front.get(k - 1),
+                k => back.get(k - 1 - front.len()),
             };
-            // The inverse of the lag, `q + tau dq/dt`, a dead time ahead (never below 0: a
-            // valve cannot pull material back).
-            let command = |k: usize| -> f32 {
-                let (lo, span) = if k > 0 { (k - 1, 2.0) } else { (k, 1.0) };
-                let slope = (at(k + 1) - at(lo)) / (span * SEGMENT_S);
-                (at(k) + ch.tau * slope).max(0.0)
-            };
-            // A channel about to shut shuts `lag` segments early; one about to open opens
-            // `lead` segments early.
-            let now = command(ch.dead);
-            out[c] = if ch.lag > 0 && now > 0.0 && command(ch.dead + ch.lag) == 0.0 {
-                0.0
-            } else if ch.lead > 0 && now == 0.0 {
-                command(ch.dead + ch.lead)
+            s.map_or(0.0, |s| s.flow[c])
+        };
+        let slope = |q: [f32; 3], k: usize| -> f32 {
+            if k > 0 {
+                (q[2] - q[0]) / (2.0 * SEGMENT_S)
             } else {
-                now
+                (q[2] - q[1]) / SEGMENT_S
+            }
+        };
+        // Pass 1: each channel's own command, and what a channel that cannot shed its flow
+        // fast enough delivers beyond its share (now, `dead`, and a segment later).
+        let mut own = [0.0f32; CHANNELS];
+        let mut held = [false; CHANNELS];
+        let mut excess = [0.0f32; 2];
+        let mut free_flow = 0.0f32;
+        for (c, ch) in self.ch.iter_mut().enumerate() {
+            // The valve's flow at the start of the segment now commanded, after the last
+            // command acted for one segment.
+            ch.y = ch.last + (ch.y - ch.last) * ch.r;
+            let k = ch.dead;
+            let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
+            let raw = q[1] + ch.tau * slope(q, k);
+            // Mid-road (the road still deposits a time constant on) never below HOLD of the
+            // flow asked for: a dip, not a shut valve (the module's essay).
+            let floor = if q[1] > 0.0 && at(c, k + ch.hold_horizon) > 0.0 {
+                HOLD * q[1]
+            } else {
+                0.0
             };
+            if raw < floor && ch.y > q[1] {
+                // Shedding as fast as it can: its mean flow over this segment and the next,
+                // from `y` towards `floor` (a first-order lag's mean over one segment is
+                // `floor + (y - floor) g`).
+                held[c] = true;
+                own[c] = floor;
+                let y1 = floor + (ch.y - floor) * ch.r;
+                excess[0] += (floor + (ch.y - floor) * ch.g - q[1]).max(0.0);
+                excess[1] += (floor + (y1 - floor) * ch.g - q[2]).max(0.0);
+            } else {
+                own[c] = raw.max(floor);
+                free_flow += q[1];
+            }
+        }
+        // Pass 2: the other channels give up that excess, in proportion to their flows, so
+        // the bead keeps its width while its composition lags (a road's width is geometry; a
+        // composition blends anyway). Their targets are lowered by the excess and commanded
+        // through the same inverse lag.
+        let mut out = own;
+        let total = [self.excess_prev, excess[0], excess[1]];
+        if (total[0] > 0.0 || total[1] > 0.0) && free_flow > 0.0 {
+            for (c, ch) in self.ch.iter().enumerate() {
+                let k = ch.dead;
+                let q1 = at(c, k);
+                if held[c] || q1 <= 0.0 {
+                    continue;
+                }
+                let share = q1 / free_flow;
+                // Lowered by what the held channels will deliver beyond their shares a
+                // segment on (the lag carries the lowering over as the excess decays),
+                // never below the hold.
+                out[c] = (own[c] - share * total[2]).max(HOLD * q1);
+            }
+        }
+        self.excess_prev = excess[0];
+        for (c, ch) in self.ch.iter_mut().enumerate() {
+            // A channel about to shut shuts `lag` segments early; one about to open opens
+            // `lead` segments early (the stateless command of those segments).
+            let ahead = |k: usize| -> f32 {
+                let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
+                (q[1] + ch.tau * slope(q, k)).max(0.0)
+            };
+            if ch.lag > 0 && out[c] > 0.0 && ahead(ch.dead + ch.lag) == 0.0 {
+                out[c] = 0.0;
+            } else if ch.lead > 0 && out[c] == 0.0 {
+                out[c] = ahead(ch.dead + ch.lead);
+            }
+            ch.last = out[c].clamp(0.0, ch.full_flow);
         }
         out
     }
@@ -228,6 +324,7 @@ impl Valves {
     pub fn close_all<B: Board>(&mut self, board: &mut B) -> Result<(), PwmFault> {
         let mut result = Ok(());
         for (c, ch) in self.ch.iter_mut().enumerate() {
+            ch.last = 0.0;
             match board.valve(c).set_duty_cycle(0) {
                 Ok(()) => ch.duty = Some(0),
                 Err(_) => {

@@ -6,6 +6,7 @@
 //! deposits there, and whether the move into it deposits (a road) or travels (valves shut).
 
 pub mod composition;
+pub mod despike;
 mod meander;
 pub mod moves;
 pub mod offset;

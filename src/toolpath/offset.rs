@@ -24,6 +24,7 @@
 //! the plan's blended field ([`BlendedField`]): exactly a feature's material on its keep-out
 //! curve.
 
+use super::despike::{finish, Despike};
 use heapless::Vec;
 
 use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
@@ -456,7 +457,9 @@ impl OffsetSpiral {
         self.sample(slice)?;
         self.trace_all(slice, &mut stats)?;
         self.join(slice, &mut stats)?;
-        self.walk_all(slice, plan, sink, &mut stats)?;
+        let mut despiked = Despike::new(sink, slice.settings().road_width);
+        self.walk_all(slice, plan, &mut despiked, &mut stats)?;
+        finish(&mut despiked)?;
         Ok(stats)
     }
 

@@ -20,6 +20,7 @@
 //! lie on one grid along the whole MCL, whatever the spacing of its vertices. The bands, road
 //! widths and meanders are in the sibling module `meander`.
 
+use super::despike::{finish, Despike};
 use heapless::Vec;
 
 use crate::config::{MAX_HOLES, MAX_MCLS};
@@ -202,8 +203,16 @@ impl Ends {
     }
 }
 
-/// Writes the zigzag layer of `plan` into `sink`.
+/// Writes the zigzag layer of `plan` into `sink`, spikes dropped
+/// ([`despike`](super::despike)).
 pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
+    let mut despiked = Despike::new(sink, slice.settings().road_width);
+    let stats = zigzag_into(slice, plan, &mut despiked)?;
+    finish(&mut despiked)?;
+    Ok(stats)
+}
+
+fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
     let half = 0.5 * slice.settings().road_width;
     let holes = slice.holes().len();
     // Cannot fail: a slice holds at most MAX_HOLES holes, and one wall.

@@ -1,0 +1,158 @@
+//! Spikes out of a layer: a depositing move that turns straight back on the move before it.
+//!
+//! The layers' construction (bends around keep-out bands, chords refined onto a level, stroke
+//! ends trimmed off a feature) now and then leaves a vertex a few micrometres to a fraction of
+//! a road past where the road goes on, so the road runs out to it and straight back. A printer
+//! has to stop dead for that reversal (the look-ahead's corner speed of a reversal is 0), the
+//! valves shut and reopen there, and the bead swells on the doubled piece. [`Despike`] sits
+//! between a layer and its sink, one vertex behind, and drops such a vertex: where the moves
+//! `a -> b -> c` both deposit, turn by more than [`SPIKE_COS`] and the shorter of the two is
+//! under [`SPIKE_SHARE`] of the road width, `b` goes and the road runs `a -> c`, along the
+//! line it had already covered. A chain of spikes goes one vertex at a time.
+
+use super::{PathSink, Vertex};
+use crate::{Error, Limit};
+
+/// A turn counts as a reversal below this cosine (about 172 degrees).
+pub const SPIKE_COS: f32 = -0.99;
+/// A reversal is a spike where its shorter leg is under this share of the road width.
+pub const SPIKE_SHARE: f32 = 0.5;
+
+/// A [`PathSink`] that drops spikes before they reach `inner` (the module's essay); call
+/// [`finish`](Self::finish) at the end of the layer.
+pub struct Despike<'a, S: PathSink> {
+    inner: &'a mut S,
+    pending: Option<Vertex>,
+    road_width: f32,
+    /// Vertices dropped.
+    pub dropped: u32,
+}
+
+impl<'a, S: PathSink> Despike<'a, S> {
+    /// In front of `inner`, for roads of `road_width` mm.
+    pub fn new(inner: &'a mut S, road_width: f32) -> Despike<'a, S> {
+        Despike {
+            inner,
+            pending: None,
+            road_width,
+            dropped: 0,
+        }
+    }
+
+    /// Passes on the vertex held back; a full sink hands it back.
+    pub fn finish(&mut self) -> Result<(), Vertex> {
+        match self.pending.take() {
+            Some(v) => self.inner.push_vertex(v),
+            None => Ok(()),
+        }
+    }
+
+    fn is_spike(&self, a: &Vertex, b: &Vertex, c: &Vertex) -> bool {
+        if !(b.deposit && c.deposit) {
+            return false;
+        }
+        let (u, v) = (b.at - a.at, c.at - b.at);
+        let (lu, lv) = (u.norm(), v.norm());
+        if lu <= 0.0 || lv <= 0.0 {
+            return false;
+        }
+        u.dot(v) < SPIKE_COS * lu * lv && lu.min(lv) < SPIKE_SHARE * self.road_width
+    }
+}
+
+impl<S: PathSink> PathSink for Despike<'_, S> {
+    fn push_vertex(&mut self, c: Vertex) -> Result<(), Vertex> {
+        if let Some(b) = self.pending {
+            if let Some(a) = self.inner.last_vertex() {
+                if self.is_spike(&a, &b, &c) {
+                    self.dropped += 1;
+                    self.pending = Some(c);
+                    return Ok(());
+                }
+            }
+            self.inner.push_vertex(b)?;
+        }
+        self.pending = Some(c);
+        Ok(())
+    }
+
+    fn last_vertex(&self) -> Option<Vertex> {
+        self.pending.or_else(|| self.inner.last_vertex())
+    }
+}
+
+/// Passes on the vertex `d` holds back, a full sink as [`Error::Capacity`] (as
+/// [`emit`](super::emit) does).
+pub(crate) fn finish<S: PathSink>(d: &mut Despike<'_, S>) -> Result<(), Error> {
+    d.finish().map_err(|_| Error::Capacity {
+        limit: Limit::PathVertices,
+        feature: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Point;
+
+    fn v(x: f32, y: f32) -> Vertex {
+        Vertex {
+            at: Point::new(x, y),
+            material: [1.0, 0.0, 0.0, 0.0],
+            width: 0.4,
+            deposit: true,
+        }
+    }
+
+    fn run(pts: &[(f32, f32)]) -> (heapless::Vec<Vertex, 16>, u32) {
+        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
+        let mut d = Despike::new(&mut out, 0.4);
+        for &(x, y) in pts {
+            d.push_vertex(v(x, y)).unwrap();
+        }
+        d.finish().unwrap();
+        let n = d.dropped;
+        (out, n)
+    }
+
+    #[test]
+    fn a_short_reversal_goes_and_a_corner_or_a_long_hairpin_stays() {
+        // Out 1 mm, 0.05 mm past, back: the spike's tip goes.
+        let (out, n) = run(&[(0.0, 0.0), (1.05, 0.0), (1.0, 0.001), (1.0, 1.0)]);
+        assert_eq!(n, 1);
+        assert_eq!(out.len(), 3);
+        assert_eq!(out[1].at, Point::new(1.0, 0.001));
+        // A right angle and a hairpin of two long legs stay.
+        let (out, n) = run(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]);
+        assert_eq!((out.len(), n), (4, 0));
+        let (out, n) = run(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.01)]);
+        assert_eq!((out.len(), n), (3, 0));
+        // A chain of spikes goes vertex by vertex: with the first tip gone the road runs on
+        // along the line, and a second reversal there goes too.
+        let (out, n) = run(&[(0.0, 0.0), (1.0, 0.0), (0.9, 0.0), (1.02, 0.0), (1.0, 1.0)]);
+        assert_eq!(n, 1, "{out:?}");
+        let (out, n) = run(&[
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.95, 0.0),
+            (1.1, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+        ]);
+        assert_eq!(n, 2, "{out:?}");
+        assert_eq!(out.len(), 4, "{out:?}");
+        // A travel into the next vertex is never merged away.
+        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
+        let mut d = Despike::new(&mut out, 0.4);
+        for (k, p) in [(0.0, 0.0), (1.05, 0.0), (1.0, 0.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let mut x = v(p.0, p.1);
+            x.deposit = k != 2;
+            d.push_vertex(x).unwrap();
+        }
+        d.finish().unwrap();
+        assert_eq!(out.len(), 3);
+    }
+}
