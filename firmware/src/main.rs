@@ -16,7 +16,9 @@ use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::DigestSink;
 use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
-use static_cell::ConstStaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
+
+mod motion_bench;
 
 mod slice_data {
     use hollowpath::geometry::Point;
@@ -28,6 +30,14 @@ static PLANNER: ConstStaticCell<Planner> = ConstStaticCell::new(Planner::new());
 
 /// The offset spiral's working memory, in .bss.
 static OFFSET: ConstStaticCell<OffsetSpiral> = ConstStaticCell::new(OffsetSpiral::new());
+
+/// The motion controller of the motion bench, in .bss.
+static MACHINE: StaticCell<hollowpath::motion::Machine<{ motion_bench::LOOK_AHEAD }>> =
+    StaticCell::new();
+
+/// Instructions per SysTick tick under `-icount shift=0` (one instruction a nanosecond, the
+/// SysTick on the 25 MHz core clock).
+const INSNS_PER_TICK: u64 = 40;
 
 /// SysTick wraps (each 2^24 ticks).
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -146,6 +156,48 @@ fn main() -> ! {
         sink.digest(),
         t7 - t6,
         stats.jumps
+    );
+
+    // The zigzag layer again, streamed into the motion controller and stepped against
+    // counting pins (its first `motion_bench::MOVES` moves).
+    let cfg = motion_bench::printer();
+    let z = cfg.layer_height;
+    let machine =
+        MACHINE.init(hollowpath::motion::Machine::new(cfg).unwrap_or_else(|e| fail("printer", e)));
+    let mut board = motion_bench::CountingBoard::default();
+    let mut feed = motion_bench::Feed::new(machine, &mut board, z, ticks);
+    feed.home();
+    let homed = feed.figures;
+    let result = zigzag(&slice, plan, &mut feed);
+    feed.drain();
+    if let Some(why) = feed.refused {
+        fail("motion", why);
+    }
+    result.unwrap_or_else(|e| fail("zigzag (motion)", e));
+    let f = feed.figures;
+    let segments = feed.machine.stepper().stats.segments;
+    let (pulses, openings) = (board.pulses(), board.openings());
+    hprintln!(
+        "motion moves {} pulses {} {} {} openings {} {} {} {} segments {} alarms {}",
+        f.moves,
+        pulses[0],
+        pulses[1],
+        pulses[2],
+        openings[0],
+        openings[1],
+        openings[2],
+        openings[3],
+        segments,
+        f.alarms - homed.alarms
+    );
+    let steps = (pulses[0] + pulses[1] + pulses[2]).max(1) as u64;
+    hprintln!(
+        "bench lookahead four_holes {}",
+        f.push_ticks * INSNS_PER_TICK / (f.moves.max(1) as u64)
+    );
+    hprintln!(
+        "bench step_isr four_holes {}",
+        (f.alarm_ticks - homed.alarm_ticks) * INSNS_PER_TICK / steps
     );
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]

@@ -185,9 +185,10 @@ impl Default for PrinterConfig {
     /// A pneumatic four-channel extrusion bioprinter on leadscrew axes:
     ///
     /// * X and Y: 400 steps/mm (a 2 mm-lead screw at 1/4 microstepping of 200 steps), 30 mm/s,
-    ///   100 mm/s^2 (a pneumatic valve sheds flow at most at `q / tau`, so braking into a
-    ///   corner faster than `v / tau` outruns it: at 100 mm/s^2 and 30 ms that is only below
-    ///   3 mm/s, and the corner deposit stays within 1 %); Z: 3200 steps/mm (a 0.5 mm lead at 1/8), 5 mm/s, 50 mm/s^2. Endstops
+    ///   100 mm/s^2 (a pneumatic valve sheds flow at most at `q / tau`, so depositing blocks
+    ///   brake into a corner no faster than `v / tau` allows: below 1.5 mm/s at 30 ms, the
+    ///   look-ahead brakes more gently than this); Z: 3200 steps/mm (a 0.5 mm lead at 1/8),
+    ///   5 mm/s, 50 mm/s^2. Endstops
     ///   (active high) on all three, homing to (0, 0, 0) at 5 mm/s.
     /// * 10 mm/s printing, 25 mm/s travel, junction deviation 0.01 mm.
     /// * A 1 MHz step timer, 2 us step pulses, 1 us direction setup.
