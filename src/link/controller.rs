@@ -48,12 +48,14 @@ pub enum Event {
 ///     let mut bytes = uart.read_available();
 ///     while !bytes.is_empty() {
 ///         let (event, rest) = ctrl.receive(now, bytes);
+///         let stalled = event.is_none() && rest.len() == bytes.len();
 ///         bytes = rest;
 ///         match event {
 ///             Some(Event::SliceReady) => if let Ok(slice) = ctrl.finish_slice() { plan(slice) },
 ///             Some(Event::Start) => start(),
 ///             ...
 ///         }
+///         if stalled { break } // replies wait for the window: keep the bytes for later
 ///     }
 ///     ctrl.poll(now);
 ///     while let Some(frame) = ctrl.transmit(now) { uart.write_all(frame) }
@@ -67,6 +69,8 @@ pub struct Controller<const HOLES: usize, const POINTS: usize, const W: usize> {
     greeted: bool,
     printer: Option<PrinterConfig>,
     accepted: bool,
+    /// A whole slice waits for `finish_slice`: nothing more is taken before.
+    slice_pending: bool,
     replies: Deque<CtrlMsg, REPLIES>,
     dropped: u32,
 }
@@ -81,6 +85,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             greeted: false,
             printer: None,
             accepted: false,
+            slice_pending: false,
             replies: Deque::new(),
             dropped: 0,
         }
@@ -154,10 +159,12 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
     /// Consumes bytes up to the first message that means something to the application (or
     /// all of them); returns it with the bytes not consumed yet. While replies wait for room
     /// in the send window ([`REPLIES`] of them, the peer not acknowledging), nothing is
-    /// consumed: [`transmit`](Self::transmit), and feed the bytes again later.
+    /// consumed: [`transmit`](Self::transmit), and feed the bytes again later. Nor after
+    /// [`Event::SliceReady`] until [`finish_slice`](Self::finish_slice) was called, so that a
+    /// start behind it finds the slice accepted or refused.
     pub fn receive<'a>(&mut self, now: u64, bytes: &'a [u8]) -> (Option<Event>, &'a [u8]) {
         self.flush();
-        if self.replies.len() + 2 > REPLIES {
+        if self.slice_pending || self.replies.len() + 2 > REPLIES {
             return (None, bytes);
         }
         let (msg, rest) = self.link.receive(now, bytes);
@@ -208,7 +215,10 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             } => linked(self.assembler.feature(feature, material, vertices)),
             HostMsg::Contour(chunk) => linked(self.assembler.chunk(&chunk)),
             HostMsg::EndSlice { holes } => match self.assembler.end(holes) {
-                Ok(true) => return Some(Event::SliceReady),
+                Ok(true) => {
+                    self.slice_pending = true;
+                    return Some(Event::SliceReady);
+                }
                 Ok(false) => None,
                 Err(e) => Some(RemoteError::Link(e)),
             },
@@ -225,6 +235,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
     /// printer, if one was configured). The outcome is reported to the host
     /// ([`CtrlMsg::SliceAccepted`] or the error); only an accepted slice may be started.
     pub fn finish_slice(&mut self) -> Result<Slice, RemoteError> {
+        self.slice_pending = false;
         let result = match self.assembler.build() {
             None => Err(RemoteError::Link(LinkError::UnexpectedMessage)),
             Some(Err(e)) => Err(RemoteError::Slice(e)),

@@ -9,7 +9,8 @@
 //!   [`CtrlMsg`](message::CtrlMsg)), serde-derived, postcard-encoded, `heapless` types only;
 //!   the hello carries the protocol version. [`wire`] mirrors the one core error that does
 //!   not serialize as it is.
-//! * [`contour`]: contours in integer micrometres, zigzag delta varints.
+//! * [`contour`]: contours in integer micrometres, zigzag delta varints; [`upload`]: the
+//!   messages that carry a slice.
 //! * [`frame`]: COBS frames with a CRC-32, and the fixed-buffer [`FrameAccumulator`](frame::FrameAccumulator).
 //! * [`window`] and [`endpoint`]: the [`Link`](endpoint::Link): sequence numbers, cumulative
 //!   acks on every frame, a nak on a gap, go-back-N retransmission on timeout: in-order,
@@ -28,6 +29,7 @@ pub mod endpoint;
 pub mod error;
 pub mod frame;
 pub mod message;
+pub mod upload;
 pub mod watchdog;
 pub mod window;
 pub mod wire;
