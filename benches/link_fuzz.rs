@@ -14,8 +14,14 @@ use std::time::Instant;
 use link_support::{ctrl_messages, fuzz_case, host_messages, simulate, CtrlEnd, Faults, Rng};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
-    let cases: u64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(1_000_000);
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let cases: u64 = args
+        .first()
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(1_000_000);
     let seed: u64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(0x11_1ce);
     let t = Instant::now();
     let mut rng = Rng::new(seed);
@@ -63,7 +69,13 @@ fn main() {
         lost += u64::from(o.lost_data);
         if o.ctrl_got != up || o.host_got != down {
             failures += 1;
-            println!("simulation {k} ({f:?}): delivered {} of {} up, {} of {} down", o.ctrl_got.len(), up.len(), o.host_got.len(), down.len());
+            println!(
+                "simulation {k} ({f:?}): delivered {} of {} up, {} of {} down",
+                o.ctrl_got.len(),
+                up.len(),
+                o.host_got.len(),
+                down.len()
+            );
         }
     }
     println!(
