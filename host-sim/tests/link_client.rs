@@ -250,11 +250,9 @@ fn session(faults: Faults, seed: u64) -> (LinkStats, u32) {
             client.send_printer(&PrinterConfig::default()).unwrap();
             let report = client.upload(&slice, 25).unwrap();
             assert_eq!(report.holes as usize, slice.holes().len());
-            let digest = loop {
-                match client.next_message(Duration::from_secs(60)).unwrap() {
-                    Some(CtrlMsg::Telemetry(Telemetry::Plan { digest })) => break digest,
-                    other => panic!("{other:?}"),
-                }
+            let digest = match client.next_message(Duration::from_secs(60)).unwrap() {
+                Some(CtrlMsg::Telemetry(Telemetry::Plan { digest })) => digest,
+                other => panic!("{other:?}"),
             };
             assert_eq!(
                 digest,
@@ -329,8 +327,10 @@ fn the_client_reports_the_controllers_refusal() {
                 .unwrap();
             let mut client = LinkClient::new(host_end, CONFIG);
             client.hello().unwrap();
-            let mut p = PrinterConfig::default();
-            p.channels = 0;
+            let p = PrinterConfig {
+                channels: 0,
+                ..PrinterConfig::default()
+            };
             let e = client.send_printer(&p).unwrap_err();
             assert!(
                 matches!(e, ClientError::Remote(RemoteError::Printer(_))),

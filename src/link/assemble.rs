@@ -50,7 +50,8 @@ impl<const HOLES: usize, const POINTS: usize> Default for SliceAssembler<HOLES, 
 }
 
 impl<const HOLES: usize, const POINTS: usize> SliceAssembler<HOLES, POINTS> {
-    // Hole indices are `u8` (`FeatureId::Hole`); vertex counts `u32` on the wire.
+    // Hole indices are `u8` (`FeatureId::Hole`); vertex counts (at most POINTS) `u32` on the
+    // wire: every `as u32` of a count below is bounded by this.
     const FITS: () = assert!(HOLES <= MAX_HOLES && POINTS <= u32::MAX as usize);
 
     /// An empty assembler, waiting for a job.

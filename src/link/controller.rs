@@ -9,9 +9,14 @@ use super::error::LinkError;
 use super::message::{
     check_protocol, Capacities, CtrlMsg, HostMsg, RemoteError, Version, PROTOCOL_VERSION,
 };
-use crate::config::{CHANNELS, MAX_VERTICES};
+use crate::config::{CHANNELS, MAX_HOLES, MAX_VERTICES};
 use crate::motion::config::PrinterConfig;
 use crate::slice::Slice;
+
+// The capacities go out as `u16` holes and `u32` vertices: HOLES <= MAX_HOLES and POINTS <=
+// u32::MAX are asserted by the assembler; a slice stores at most this many vertices.
+const _: () = assert!(MAX_HOLES <= u16::MAX as usize);
+const _: () = assert!((MAX_HOLES + 1) * MAX_VERTICES <= u32::MAX as usize);
 
 /// Replies the controller queues itself (hello, acceptances, refusals) while the send window
 /// is full.
@@ -254,7 +259,8 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
                         .sum::<usize>();
                 self.accepted = true;
                 self.reply(CtrlMsg::SliceAccepted {
-                    // At most MAX_HOLES (<= 64) holes.
+                    // At most MAX_HOLES (<= 64) holes, (MAX_HOLES + 1) * MAX_VERTICES vertices
+                    // (asserted above).
                     holes: slice.holes().len() as u8,
                     vertices: vertices as u32,
                 });

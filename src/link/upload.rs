@@ -2,8 +2,12 @@
 
 use super::contour::{chunks, Chunks};
 use super::message::HostMsg;
+use crate::config::MAX_VERTICES;
 use crate::error::{Error, FeatureId};
 use crate::slice::{Feature, Slice};
+
+// A stored polygon's vertex count goes out as a `u32`.
+const _: () = assert!(MAX_VERTICES <= u32::MAX as usize);
 
 /// The messages of a slice upload: [`HostMsg::Job`], then per feature (the wall, then the
 /// holes) [`HostMsg::Feature`] and its [`HostMsg::Contour`] chunks, then
@@ -64,6 +68,7 @@ impl<'a> Iterator for Upload<'a> {
             return Some(Ok(HostMsg::Feature {
                 feature: id,
                 material: f.material(),
+                // At most MAX_VERTICES (asserted below).
                 vertices: f.points().len() as u32,
             }));
         }

@@ -105,6 +105,7 @@ impl<const W: usize> TxWindow<W> {
             return 0;
         }
         self.head = (self.head + d) % W;
+        // `d <= sent <= W <= MAX_WINDOW`: the cast cannot truncate.
         self.base = self.base.wrapping_add(d as u8);
         self.len -= d;
         self.sent -= d;

@@ -6,7 +6,7 @@ use core::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::error::FeatureId;
-use crate::motion::config::PrinterError;
+use crate::motion::error::PrinterError;
 
 /// Every key a [`PrinterError`] names (its `Speed`, `Pulse` and `ChannelValue` variants).
 pub const PRINTER_KEYS: [&str; 14] = [
