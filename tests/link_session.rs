@@ -332,6 +332,37 @@ fn assembler_refusals_name_what_to_change() {
 }
 
 #[test]
+fn a_restarted_host_opens_a_new_session() {
+    let (mut host, mut ctrl, mut now) = (Host::new(CFG), Ctrl::new(CFG, FW), 0);
+    host.open(1);
+    let msgs = [
+        hello(),
+        HostMsg::Printer(PrinterConfig::default()),
+        HostMsg::Pause,
+    ];
+    let (events, _) = run(&mut host, &mut ctrl, &msgs, &mut now);
+    assert_eq!(events, [Event::Hello, Event::Printer, Event::Pause]);
+    // The controller has frames in flight to a host that is gone ...
+    ctrl.send(&CtrlMsg::PrinterAccepted).unwrap();
+    let _ = ctrl.transmit(now);
+    // ... and a new host, from sequence number 0, is heard all the same.
+    let mut host = Host::new(CFG);
+    host.open(2);
+    let (events, got) = run(&mut host, &mut ctrl, &[hello(), HostMsg::Resume], &mut now);
+    assert_eq!(events, [Event::Hello, Event::Resume]);
+    assert!(matches!(got[..], [CtrlMsg::Hello { .. }]), "{got:?}");
+    assert_eq!(ctrl.stats().sessions, 2);
+    // A new session must greet first.
+    let mut host = Host::new(CFG);
+    host.open(3);
+    let (events, _) = run(&mut host, &mut ctrl, &[HostMsg::Resume], &mut now);
+    assert_eq!(
+        events,
+        [Event::Refused(RemoteError::Link(LinkError::NotGreeted))]
+    );
+}
+
+#[test]
 fn the_watchdog_reports_a_silent_host() {
     let (mut host, mut ctrl, mut now) = (Host::new(CFG), Ctrl::new(CFG, FW), 0);
     assert!(!ctrl.is_lost(1_000_000)); // no host yet

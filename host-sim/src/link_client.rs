@@ -88,18 +88,26 @@ pub struct LinkClient<S> {
     /// Longest wait for one answer.
     pub timeout: Duration,
     written: u64,
+    nonce: u8,
 }
 
 impl<S: Read + Write> LinkClient<S> {
-    /// A client over `stream` with the link's timers `config`.
+    /// A client over `stream` with the link's timers `config`. It opens a new session
+    /// (numbered from the clock), so a controller still in an older one follows.
     pub fn new(stream: S, config: LinkConfig) -> Self {
+        let nonce = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_micros() as u8);
+        let mut link = Box::new(HostLink::new(config));
+        link.open(nonce);
         LinkClient {
             stream,
-            link: Box::new(HostLink::new(config)),
+            link,
             start: Instant::now(),
             inbox: VecDeque::new(),
             timeout: Duration::from_secs(10),
             written: 0,
+            nonce,
         }
     }
 
@@ -244,7 +252,25 @@ impl<S: Read + Write> LinkClient<S> {
     }
 
     /// Opens the session: sends our hello, and checks the controller's protocol version.
+    /// If no answer comes within a second, the session is opened again under another nonce
+    /// (the controller may have had the one first drawn) and the hello sent once more.
     pub fn hello(&mut self) -> Result<(Version, Capacities), ClientError> {
+        let full = self.timeout;
+        self.timeout = full.min(Duration::from_secs(1));
+        let first = self.try_hello();
+        self.timeout = full;
+        match first {
+            Err(ClientError::Timeout { .. }) => {
+                self.nonce = self.nonce.wrapping_add(1);
+                self.link.open(self.nonce);
+                self.inbox.clear();
+                self.try_hello()
+            }
+            other => other,
+        }
+    }
+
+    fn try_hello(&mut self) -> Result<(Version, Capacities), ClientError> {
         self.send(&HostMsg::Hello {
             protocol: PROTOCOL_VERSION,
         })?;

@@ -78,6 +78,8 @@ pub struct Controller<const HOLES: usize, const POINTS: usize, const W: usize> {
     slice_pending: bool,
     replies: Deque<CtrlMsg, REPLIES>,
     dropped: u32,
+    /// The link's session count when last seen.
+    sessions: u32,
 }
 
 impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, POINTS, W> {
@@ -93,6 +95,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             slice_pending: false,
             replies: Deque::new(),
             dropped: 0,
+            sessions: 0,
         }
     }
 
@@ -173,6 +176,12 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             return (None, bytes);
         }
         let (msg, rest) = self.link.receive(now, bytes);
+        if self.link.stats().sessions != self.sessions {
+            // A host opened a new session: what was queued for the old one is void.
+            self.sessions = self.link.stats().sessions;
+            self.replies.clear();
+            self.greeted = false;
+        }
         let event = match msg {
             Ok(Some(msg)) => self.on_message(msg),
             Ok(None) => None,

@@ -71,6 +71,8 @@ pub struct LinkStats {
     pub out_of_order: u32,
     /// Data frames received again (dropped, acked).
     pub duplicates: u32,
+    /// Sessions the peer opened ([`Link::open`]).
+    pub sessions: u32,
 }
 
 /// One end of the link: sends `Out` messages and receives `In` messages, in order and exactly
@@ -101,6 +103,10 @@ pub struct Link<Out, In, const W: usize> {
     out: [u8; MAX_FRAME],
     watchdog: Watchdog,
     last_tx: Option<u64>,
+    /// Our session's nonce while its opening frame is not yet acknowledged.
+    opening: Option<u8>,
+    /// The nonce of the session the peer opened.
+    peer_session: Option<u8>,
     stats: LinkStats,
     _messages: PhantomData<fn(&Out) -> In>,
 }
@@ -116,6 +122,8 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
             out: [0; MAX_FRAME],
             watchdog: Watchdog::new(config.watchdog_us),
             last_tx: None,
+            opening: None,
+            peer_session: None,
             stats: LinkStats {
                 frames_sent: 0,
                 retransmissions: 0,
@@ -128,6 +136,7 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
                 framing_errors: 0,
                 out_of_order: 0,
                 duplicates: 0,
+                sessions: 0,
             },
             _messages: PhantomData,
         }
@@ -141,6 +150,18 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
         self.acc.clear();
         self.watchdog.disarm();
         self.last_tx = None;
+        self.opening = None;
+        self.peer_session = None;
+    }
+
+    /// Starts a new session, numbered `nonce`: [`reset`](Self::reset), and the first
+    /// message sent goes as a [`Kind::Open`] frame, which makes the peer drop whatever
+    /// session it had (its unacknowledged frames too) and start from sequence number 0. A
+    /// host opens; the controller never needs to. `nonce` should differ from the last
+    /// session's (a peer takes an opening frame of the nonce it has as a repeat).
+    pub fn open(&mut self, nonce: u8) {
+        self.reset();
+        self.opening = Some(nonce);
     }
 
     /// The timers.
@@ -196,7 +217,18 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
             };
             self.watchdog.feed(now);
             self.stats.frames_received += 1;
-            self.tx.ack(f.ack, now, self.config.retransmit_us);
+            if f.kind == Kind::Open {
+                if self.peer_session != Some(f.ack) {
+                    // A new session: the old one's frames either way are void.
+                    self.tx.reset();
+                    self.rx = RxState::new();
+                    self.opening = None;
+                    self.peer_session = Some(f.ack);
+                    self.stats.sessions += 1;
+                }
+            } else if self.tx.ack(f.ack, now, self.config.retransmit_us) > 0 {
+                self.opening = None;
+            }
             match f.kind {
                 Kind::Ack => {}
                 Kind::Nak => {
@@ -204,7 +236,7 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
                         self.stats.naks_received += 1;
                     }
                 }
-                Kind::Data => match self.rx.arrive(f.seq) {
+                Kind::Data | Kind::Open => match self.rx.arrive(f.seq) {
                     Arrival::InOrder => {
                         self.stats.delivered += 1;
                         let msg = postcard::from_bytes::<In>(f.payload)
@@ -255,7 +287,13 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
             if again {
                 self.stats.retransmissions += 1;
             }
-            frame::encode(Kind::Data, seq, ack, payload, &mut self.out)
+            match self.opening {
+                // Until acknowledged, frame 0 of our session opens it.
+                Some(nonce) if seq == 0 => {
+                    frame::encode(Kind::Open, seq, nonce, payload, &mut self.out)
+                }
+                _ => frame::encode(Kind::Data, seq, ack, payload, &mut self.out),
+            }
         } else if self.rx.ack_due
             || (self.config.keepalive_us > 0
                 && self

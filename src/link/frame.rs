@@ -5,10 +5,12 @@
 //! [ kind | seq | ack | payload (0..=MAX_PAYLOAD) | crc32 (LE) ]  --COBS-->  ... 0x00
 //! ```
 //!
-//! * `kind`: [`Kind::Data`] carries a message; [`Kind::Ack`] and [`Kind::Nak`] carry none.
+//! * `kind`: [`Kind::Data`] carries a message; [`Kind::Open`] too, the first of a session;
+//!   [`Kind::Ack`] and [`Kind::Nak`] carry none.
 //! * `seq`: the data frame's sequence number (wrapping `u8`; 0 in acks).
 //! * `ack`: every frame acknowledges cumulatively: the sequence number the sender expects
-//!   next. A [`Kind::Nak`] additionally asks for a retransmission from there.
+//!   next. A [`Kind::Nak`] additionally asks for a retransmission from there. In a
+//!   [`Kind::Open`] frame it is the session's nonce instead.
 //! * The CRC (CRC-32/ISO-HDLC) covers the header and the payload.
 //!
 //! [`FrameAccumulator`] streams bytes through a fixed buffer (as postcard's
@@ -42,6 +44,9 @@ pub const fn cobs_max(n: usize) -> usize {
 pub enum Kind {
     /// A message, with its sequence number.
     Data,
+    /// The first message of a session (sequence number 0), `ack` holding the session's
+    /// nonce: a receiver that has another session (or none) starts afresh.
+    Open,
     /// An acknowledgement only.
     Ack,
     /// An acknowledgement asking for a retransmission from `ack` (a gap was seen).
@@ -52,6 +57,7 @@ impl Kind {
     const fn byte(self) -> u8 {
         match self {
             Kind::Data => 0xD1,
+            Kind::Open => 0x5E,
             Kind::Ack => 0xA2,
             Kind::Nak => 0x4E,
         }
@@ -59,6 +65,7 @@ impl Kind {
     const fn from_byte(b: u8) -> Option<Kind> {
         match b {
             0xD1 => Some(Kind::Data),
+            0x5E => Some(Kind::Open),
             0xA2 => Some(Kind::Ack),
             0x4E => Some(Kind::Nak),
             _ => None,
@@ -214,7 +221,7 @@ fn check(buf: &mut [u8]) -> Feed<'_> {
         return Feed::Error(FrameError::Malformed);
     };
     let payload = &buf[HEADER..body];
-    if kind != Kind::Data && !payload.is_empty() {
+    if matches!(kind, Kind::Ack | Kind::Nak) && !payload.is_empty() {
         return Feed::Error(FrameError::Malformed);
     }
     Feed::Frame(Frame {

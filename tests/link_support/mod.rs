@@ -163,6 +163,7 @@ pub fn simulate(
 ) -> Outcome {
     let mut rng = Rng::new(seed);
     let mut host = HostEnd::new(SIM_CONFIG);
+    host.open(seed as u8);
     let mut ctrl = CtrlEnd::new(SIM_CONFIG);
     let (mut up, mut down) = (Wire::default(), Wire::default());
     let (mut host_got, mut ctrl_got) = (Vec::new(), Vec::new());
@@ -173,7 +174,9 @@ pub fn simulate(
             host.send(&to_ctrl[hi]).unwrap();
             hi += 1;
         }
-        while ci < to_host.len() && ctrl.can_send() {
+        // The controller speaks once the host opened the session (its first message).
+        let open = to_ctrl.is_empty() || !ctrl_got.is_empty();
+        while open && ci < to_host.len() && ctrl.can_send() {
             ctrl.send(&to_host[ci]).unwrap();
             ci += 1;
         }
@@ -248,12 +251,13 @@ pub fn fuzz_case(rng: &mut Rng, host: &mut CtrlEnd) -> Result<(), String> {
     for b in payload.iter_mut() {
         *b = rng.next() as u8;
     }
-    let (kind, seq, ack) = match rng.below(3) {
+    let (kind, seq, ack) = match rng.below(4) {
         0 => (Kind::Data, rng.next() as u8, rng.next() as u8),
-        1 => (Kind::Ack, 0, rng.next() as u8),
+        1 => (Kind::Open, 0, rng.next() as u8),
+        2 => (Kind::Ack, 0, rng.next() as u8),
         _ => (Kind::Nak, 0, rng.next() as u8),
     };
-    if kind != Kind::Data {
+    if matches!(kind, Kind::Ack | Kind::Nak) {
         payload.clear();
     }
     let mut buf = [0u8; MAX_FRAME];
