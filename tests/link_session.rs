@@ -385,3 +385,18 @@ fn the_watchdog_reports_a_silent_host() {
         now += 1_000;
     }
 }
+
+#[test]
+fn the_controller_fits_a_static_on_the_mcu() {
+    // The MCU's capacities (this test crate builds the core without `large`).
+    type Mcu = Controller<
+        { hollowpath::config::MAX_HOLES },
+        { (hollowpath::config::MAX_HOLES + 1) * hollowpath::config::MAX_VERTICES },
+        4,
+    >;
+    let bytes = std::mem::size_of::<Mcu>();
+    println!("controller (link, assembler, printer): {bytes} bytes");
+    if !hollowpath::config::LARGE {
+        assert!(bytes < 28 * 1024, "{bytes} bytes");
+    }
+}
