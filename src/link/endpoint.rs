@@ -6,7 +6,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use super::error::LinkError;
-use super::frame::{self, Feed, FrameAccumulator, FrameError, Kind, MAX_FRAME};
+use super::frame::{self, Feed, FrameAccumulator, Kind, MAX_FRAME};
 use super::watchdog::Watchdog;
 use super::window::{Arrival, RxState, TxWindow};
 
@@ -205,7 +205,7 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
             bytes = rest;
             let f = match feed {
                 Feed::Consumed => continue,
-                Feed::Error(FrameError::Crc) => {
+                Feed::Error(LinkError::FrameCrc) => {
                     self.stats.crc_errors += 1;
                     continue;
                 }

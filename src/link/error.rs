@@ -10,13 +10,24 @@ use crate::error::FeatureId;
 /// handshake, and the slice assembler's checks. Serde-derived, so a controller sends the very
 /// value the host prints.
 ///
-/// Noise on the line (a bad CRC, a broken COBS frame, an overfull frame) is not an error the
-/// application sees: such frames are dropped, counted in [`LinkStats`](super::endpoint::LinkStats)
-/// and recovered by retransmission.
+/// Noise on the line (the `Frame*` variants: a bad CRC, a broken COBS frame, an overfull
+/// frame) is not an error the application sees from a [`Link`](super::endpoint::Link): such
+/// frames are dropped, counted in [`LinkStats`](super::endpoint::LinkStats) and recovered by
+/// retransmission; the [`FrameAccumulator`](super::frame::FrameAccumulator) reports them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum LinkError {
+    /// A frame longer than [`MAX_FRAME`](super::frame::MAX_FRAME): dropped up to the next
+    /// zero.
+    FrameOverfull,
+    /// A frame that is not valid COBS.
+    FrameCobs,
+    /// A frame shorter than a header and a CRC, of an unknown kind, or an ack with a
+    /// payload.
+    FrameMalformed,
+    /// A frame whose CRC does not match.
+    FrameCrc,
     /// The send window is full: the message was not queued (call `send` again after the peer
     /// has acknowledged a frame).
     WindowFull,
@@ -93,6 +104,14 @@ pub enum LinkError {
 impl fmt::Display for LinkError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
+            LinkError::FrameOverfull => write!(
+                f,
+                "link: a frame longer than {} bytes",
+                super::frame::MAX_FRAME
+            ),
+            LinkError::FrameCobs => f.write_str("link: a frame that is not valid COBS"),
+            LinkError::FrameMalformed => f.write_str("link: a malformed frame"),
+            LinkError::FrameCrc => f.write_str("link: a frame failed its CRC"),
             LinkError::WindowFull => f.write_str("link: the send window is full"),
             LinkError::MessageTooLarge => write!(
                 f,

@@ -16,9 +16,11 @@
 //! [`FrameAccumulator`] streams bytes through a fixed buffer (as postcard's
 //! `CobsAccumulator` does, but the CRC is checked before anything is decoded) and yields
 //! checked [`Frame`]s; a frame that is too long, not valid COBS, too short or fails its CRC
-//! is dropped whole and reported as a [`FrameError`].
+//! is dropped whole and reported as the [`LinkError`] that says which.
 
 use crc::{Crc, CRC_32_ISO_HDLC};
+
+use super::error::LinkError;
 
 /// The frame check.
 pub const CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
@@ -86,20 +88,6 @@ pub struct Frame<'a> {
     pub payload: &'a [u8],
 }
 
-/// Why bytes up to a zero were not a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FrameError {
-    /// Longer than [`MAX_FRAME`]: dropped up to the next zero.
-    Overfull,
-    /// Not valid COBS.
-    Cobs,
-    /// Shorter than a header and a CRC, or an unknown kind, or a payload in an ack.
-    Malformed,
-    /// The CRC does not match.
-    Crc,
-}
-
 /// Encodes a frame into `out` (at least [`MAX_FRAME`] bytes) and returns its length, the
 /// final 0x00 included. `None` if the payload is longer than [`MAX_PAYLOAD`] or `out` is too
 /// short.
@@ -147,8 +135,9 @@ pub enum Feed<'b> {
     Consumed,
     /// A checked frame; the bytes after it are not consumed yet.
     Frame(Frame<'b>),
-    /// Bytes up to a zero that were no frame.
-    Error(FrameError),
+    /// Bytes up to a zero that were no frame: [`LinkError::FrameOverfull`],
+    /// [`LinkError::FrameCobs`], [`LinkError::FrameMalformed`] or [`LinkError::FrameCrc`].
+    Error(LinkError),
 }
 
 impl<const N: usize> FrameAccumulator<N> {
@@ -180,7 +169,7 @@ impl<const N: usize> FrameAccumulator<N> {
         self.len = 0;
         self.skipping = false;
         if skipping {
-            return (Feed::Error(FrameError::Overfull), rest);
+            return (Feed::Error(LinkError::FrameOverfull), rest);
         }
         if len == 0 {
             // Back-to-back zeros (a sender may lead a frame with one to flush noise).
@@ -206,23 +195,23 @@ impl<const N: usize> FrameAccumulator<N> {
 /// Decodes one COBS frame in place and checks it.
 fn check(buf: &mut [u8]) -> Feed<'_> {
     let Ok(n) = cobs::decode_in_place(buf) else {
-        return Feed::Error(FrameError::Cobs);
+        return Feed::Error(LinkError::FrameCobs);
     };
     if !(HEADER + CRC_BYTES..=MAX_RAW).contains(&n) {
-        return Feed::Error(FrameError::Malformed);
+        return Feed::Error(LinkError::FrameMalformed);
     }
     let body = n - CRC_BYTES;
     let mut crc = [0u8; CRC_BYTES];
     crc.copy_from_slice(&buf[body..n]);
     if CRC.checksum(&buf[..body]) != u32::from_le_bytes(crc) {
-        return Feed::Error(FrameError::Crc);
+        return Feed::Error(LinkError::FrameCrc);
     }
     let Some(kind) = Kind::from_byte(buf[0]) else {
-        return Feed::Error(FrameError::Malformed);
+        return Feed::Error(LinkError::FrameMalformed);
     };
     let payload = &buf[HEADER..body];
     if matches!(kind, Kind::Ack | Kind::Nak) && !payload.is_empty() {
-        return Feed::Error(FrameError::Malformed);
+        return Feed::Error(LinkError::FrameMalformed);
     }
     Feed::Frame(Frame {
         kind,
@@ -236,7 +225,7 @@ fn check(buf: &mut [u8]) -> Feed<'_> {
 mod tests {
     use super::*;
 
-    fn one(bytes: &[u8]) -> Result<(Kind, u8, u8, std::vec::Vec<u8>), FrameError> {
+    fn one(bytes: &[u8]) -> Result<(Kind, u8, u8, std::vec::Vec<u8>), LinkError> {
         let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         match acc.feed(bytes).0 {
             Feed::Frame(f) => Ok((f.kind, f.seq, f.ack, f.payload.to_vec())),
@@ -288,7 +277,7 @@ mod tests {
         let mut stream = std::vec![1u8, 1, 0];
         stream.extend_from_slice(&out[..n]);
         let (r, rest) = acc.feed(&stream);
-        assert_eq!(r, Feed::Error(FrameError::Overfull));
+        assert_eq!(r, Feed::Error(LinkError::FrameOverfull));
         match acc.feed(rest).0 {
             Feed::Frame(f) => assert_eq!((f.kind, f.ack), (Kind::Ack, 3)),
             other => panic!("{other:?}"),
