@@ -51,6 +51,44 @@ fn heavy_loss_is_recovered_and_counted() {
     );
 }
 
+#[test]
+fn sequence_numbers_wrap_under_loss() {
+    // 700 messages each way: the u8 sequence numbers wrap twice.
+    let mut rng = Rng::new(3);
+    let up = host_messages(700, &mut rng);
+    let down = ctrl_messages(700);
+    let faults = Faults {
+        drop: 50,
+        corrupt: 50,
+        duplicate: 50,
+        reorder: 50,
+    };
+    let o = simulate(5, faults, &up, &down, 3_000_000_000);
+    println!(
+        "700 + 700 messages: {} + {} retransmissions, {} data frames lost, {:.1} s",
+        o.host.retransmissions,
+        o.ctrl.retransmissions,
+        o.lost_data,
+        o.elapsed_us as f64 * 1e-6
+    );
+    assert_eq!(o.ctrl_got, up);
+    assert_eq!(o.host_got, down);
+    assert!(o.host.retransmissions > 0 && o.ctrl.retransmissions > 0);
+}
+
+#[test]
+fn timers_for_a_baud_rate() {
+    let c = hollowpath::link::endpoint::LinkConfig::for_baud(115_200, 4);
+    // A full window of the largest frames (4 x 525 bytes) is 182 ms at 115 200 baud.
+    assert!(
+        c.retransmit_us > 2 * 182_000 && c.retransmit_us < 450_000,
+        "{c:?}"
+    );
+    assert!(c.keepalive_us < c.watchdog_us && c.watchdog_us >= 1_000_000);
+    let fast = hollowpath::link::endpoint::LinkConfig::for_baud(1_000_000, 4);
+    assert!(fast.retransmit_us < c.retransmit_us);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
