@@ -75,19 +75,18 @@ impl Wire {
         let mut f = frame.to_vec();
         if rng.chance(faults.corrupt) {
             self.lost_data += u32::from(is_data(frame));
-            match rng.below(4) {
-                0 => {
-                    let k = rng.below(f.len());
-                    f[k] ^= 1 << rng.below(8);
-                }
+            // Byte faults: a bit flipped, a byte lost, inserted or repeated, two swapped, the
+            // frame cut short.
+            let k = rng.below(f.len());
+            match rng.below(6) {
+                0 => f[k] ^= 1 << rng.below(8),
                 1 => {
-                    f.remove(rng.below(f.len()));
+                    f.remove(k);
                 }
-                2 => f.insert(rng.below(f.len()), rng.next() as u8),
-                _ => {
-                    let k = rng.below(f.len());
-                    f.truncate(k);
-                }
+                2 => f.insert(k, rng.next() as u8),
+                3 => f.insert(k, f[k]),
+                4 if k + 1 < f.len() && f[k] != f[k + 1] => f.swap(k, k + 1),
+                _ => f.truncate(k),
             }
         }
         let copies = if rng.chance(faults.duplicate) { 2 } else { 1 };
