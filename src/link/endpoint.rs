@@ -79,7 +79,15 @@ pub struct LinkStats {
 /// once, over any byte stream, with a window of `W` unacknowledged frames.
 ///
 /// No I/O and no clock: bytes and the time (`now`, microseconds) go in, frames come out.
-/// `const fn new`, so it may live in a `static`. A firmware loop:
+/// `const fn new`, so it may live in a `static` (`W` from 1 to 127, checked at compile time;
+/// each frame of the window keeps [`MAX_PAYLOAD`](frame::MAX_PAYLOAD) bytes, and the receive
+/// and transmit buffers one [`MAX_FRAME`] each).
+///
+/// Sequence numbers are a wrapping `u8`: a line may repeat or delay frames, but not by more
+/// than 127 frames of the other traffic (a serial line keeps their order; the tests' lossy
+/// line delays up to 20 ms). The retransmission timeout is fixed, not backed off.
+///
+/// A firmware loop:
 ///
 /// ```text
 /// loop {
