@@ -400,3 +400,61 @@ fn the_controller_fits_a_static_on_the_mcu() {
         assert!(bytes < 28 * 1024, "{bytes} bytes");
     }
 }
+
+mod random_messages {
+    use super::*;
+    use heapless::Vec as HVec;
+    use hollowpath::link::message::ContourChunk;
+    use proptest::prelude::*;
+
+    fn op() -> impl Strategy<Value = HostMsg> {
+        let id = prop_oneof![Just(FeatureId::Wall), (0u8..10).prop_map(FeatureId::Hole)];
+        prop_oneof![
+            Just(HostMsg::Job {
+                settings: Settings::default(),
+                layers: 2
+            }),
+            (id.clone(), 0u32..400).prop_map(|(feature, vertices)| HostMsg::Feature {
+                feature,
+                material: [1.0, 0.0, 0.0, 0.0],
+                vertices
+            }),
+            (id, 0u32..400, proptest::collection::vec(any::<u8>(), 0..64)).prop_map(
+                |(feature, start, d)| {
+                    let mut data = HVec::new();
+                    data.extend_from_slice(&d).unwrap();
+                    HostMsg::Contour(ContourChunk {
+                        feature,
+                        start,
+                        data,
+                    })
+                }
+            ),
+            (0u8..10).prop_map(|holes| HostMsg::EndSlice { holes }),
+            Just(HostMsg::Start),
+            Just(HostMsg::Abort),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// Any sequence of messages: no panic, every refusal reported, and a start only after a
+        /// slice was accepted.
+        #[test]
+        fn random_message_sequences_never_start_an_unaccepted_slice(ops in proptest::collection::vec(op(), 0..60)) {
+            let (mut host, mut ctrl, mut now) = (Host::new(CFG), Ctrl::new(CFG, FW), 0);
+            let mut all = vec![hello()];
+            all.extend(ops);
+            let (events, got) = run(&mut host, &mut ctrl, &all, &mut now);
+            let accepted = got.iter().any(|m| matches!(m, CtrlMsg::SliceAccepted { .. }));
+            if events.contains(&Event::Start) {
+                prop_assert!(accepted);
+            }
+            let refusals = events.iter().filter(|e| matches!(e, Event::Refused(_))).count();
+            let errors = got.iter().filter(|m| matches!(m, CtrlMsg::Error(_))).count();
+            // Slice refusals from finish_slice are reported too, with no Refused event.
+            prop_assert!(errors >= refusals);
+        }
+    }
+}
