@@ -2,6 +2,8 @@
 
 use core::fmt;
 
+use serde::{Deserialize, Serialize};
+
 /// Which feature of a slice an error is about.
 ///
 /// ```
@@ -9,7 +11,7 @@ use core::fmt;
 /// assert_eq!(format!("{}", FeatureId::Hole(2)), "hole 2");
 /// assert_eq!(format!("{}", FeatureId::Wall), "the wall");
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FeatureId {
     /// The outer wall.
@@ -28,7 +30,7 @@ impl fmt::Display for FeatureId {
 }
 
 /// A setting of the slice, named in [`Error::InvalidSetting`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SettingId {
     /// `road_width`
@@ -93,7 +95,7 @@ impl SettingId {
 }
 
 /// A fixed capacity of the core (see [`config`](crate::config)), named in [`Error::Capacity`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Limit {
     /// [`MAX_HOLES`](crate::config::MAX_HOLES)
@@ -195,7 +197,7 @@ impl Limit {
 /// let e = Error::TooFewPoints { feature: FeatureId::Hole(1), distinct: 2 };
 /// assert_eq!(e.to_string(), "hole 1: only 2 distinct points, a polygon needs at least 3");
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Error {

@@ -56,6 +56,17 @@
 //!   sit on top, generic over a [`Board`](motion::Board) of pins and a
 //!   [`StepTimer`](motion::StepTimer), so a host's virtual printer runs the same code.
 //!
+//! * [`link`]: the serial link to the host, with no I/O of its own (bytes and the time go
+//!   in, frames come out, `poll(now)` returns the next deadline). postcard messages, one enum
+//!   per direction, travel in COBS frames with a CRC-32, sequence numbers and cumulative acks;
+//!   a gap is naked and a silence retransmitted (go-back-N over a small window, Klipper's
+//!   scheme), so both ends deliver every message once and in order over a line that drops,
+//!   corrupts, repeats or reorders. Contours go up in integer micrometres as zigzag delta
+//!   varints, into a fixed-capacity slice assembler that builds the [`Slice`] through
+//!   [`Slice::from_contours`] only once it arrived whole; errors go down as the core's own
+//!   typed values, the ones the host prints. A watchdog reports the host gone silent, for
+//!   the application to close the valves.
+//!
 //! Below them, [`geometry`] holds points, polygons, polylines and the grid; [`error`] the one
 //! error type. Logging goes through the private `fmt` macros: `defmt` with the `defmt` feature,
 //! nothing otherwise.
@@ -79,6 +90,7 @@ pub mod error;
 pub mod field;
 pub mod geometry;
 pub mod keep_out;
+pub mod link;
 pub mod mcl;
 pub mod motion;
 pub mod plan;

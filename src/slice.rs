@@ -5,6 +5,7 @@
 //! slice: simple polygons, counter-clockwise, holes strictly inside the wall and disjoint.
 
 use heapless::Vec;
+use serde::{Deserialize, Serialize};
 
 use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES, SIMPLIFY_ABOVE_VERTICES};
 use crate::geometry::{polygon, polyline, Point};
@@ -383,7 +384,7 @@ fn check_material(feature: FeatureId, m: &Material) -> Result<(), Error> {
 /// assert_eq!(s.road_width, 0.5);
 /// assert_eq!(s.delta, 1.0); // 2 road widths
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settings {
     /// `road_width`: deposited road width, mm (default 0.4; 0.01 to 10).

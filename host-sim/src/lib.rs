@@ -7,6 +7,7 @@
 pub mod gcode;
 pub mod json_file;
 pub mod layers;
+pub mod link_client;
 pub mod metrics;
 pub mod output;
 pub mod preview;

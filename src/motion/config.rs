@@ -1,10 +1,13 @@
 //! The printer: its axes, valves and timer, and the check that refuses a printer the motion
 //! code cannot drive.
 //!
-//! A [`PrinterConfig`] is plain data (pub fields, no serde: the link adds its own encoding).
+//! A [`PrinterConfig`] is plain data (pub fields), serde-derived so that the link
+//! ([`link`](crate::link)) carries it as it is.
 //! [`PrinterConfig::default`] is a pneumatic four-channel bioprinter on leadscrew axes;
 //! [`PrinterConfig::validate`] refuses every value the planner, the step engine or the valves
 //! could not honour, with a [`PrinterError`] that names the key.
+
+use serde::{Deserialize, Serialize};
 
 use crate::config::CHANNELS;
 
@@ -53,7 +56,7 @@ const _: () = assert!(CURVE_POINTS <= u8::MAX as usize);
 const _: () = assert!(CHANNELS <= u8::MAX as usize);
 
 /// One motion axis.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AxisConfig {
     /// Full (micro)steps per millimetre of travel.
@@ -69,7 +72,7 @@ pub struct AxisConfig {
 }
 
 /// An endstop switch.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Endstop {
     /// Whether the input reads high when the switch is hit.
@@ -78,7 +81,7 @@ pub struct Endstop {
 
 /// One point of a valve's calibration curve: at this PWM duty the channel delivers this
 /// fraction of its flow at full duty.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CurvePoint {
     /// PWM duty, 0 to 1.
@@ -93,7 +96,7 @@ pub struct CurvePoint {
 /// duty changes, nothing happens for `dead_time_s`, then the flow approaches the curve's value
 /// for the new duty as `1 - exp(-t / time_constant_s)`. The valves are commanded a dead time
 /// ahead on the path with the lag inverted (see [`valve`](super::valve)).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ChannelConfig {
     /// Flow at full duty, mm^3/s.
@@ -115,7 +118,7 @@ pub struct ChannelConfig {
 }
 
 /// The whole printer.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PrinterConfig {
     /// X, Y, Z.

@@ -18,7 +18,7 @@ use crate::toolpath::moves::Move;
 use embedded_hal::digital::{InputPin, OutputPin};
 
 /// Why the machine stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Fault {
     /// The emergency-stop input (or [`Machine::emergency_stop`]).

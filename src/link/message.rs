@@ -1,0 +1,232 @@
+//! The messages, one enum per direction: serde-derived, postcard-encoded, `heapless` types
+//! only.
+//!
+//! [`HostMsg::Hello`] and [`CtrlMsg::Hello`] are variant 0 and their first field is the
+//! protocol version, in every version of the protocol: a peer of another version still
+//! decodes the hello and refuses with [`LinkError::ProtocolMismatch`].
+//!
+//! A slice goes up as: [`HostMsg::Job`] (settings and layer count), then for the wall and
+//! each hole in order a [`HostMsg::Feature`] (material and vertex count) followed by its
+//! [`HostMsg::Contour`] chunks, then [`HostMsg::EndSlice`].
+
+use core::fmt;
+
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use super::error::LinkError;
+use super::wire::WirePrinterError;
+use crate::config::CHANNELS;
+use crate::error::{Error, FeatureId};
+use crate::motion::config::{PrinterConfig, AXES};
+use crate::motion::machine::Fault;
+use crate::slice::{Material, Settings};
+
+/// The protocol version; peers of different versions refuse each other.
+pub const PROTOCOL_VERSION: u16 = 1;
+/// Bytes of zigzag-varint vertices in one [`ContourChunk`].
+pub const CHUNK_BYTES: usize = 448;
+
+/// Refuses a peer's protocol version other than ours.
+pub fn check_protocol(theirs: u16) -> Result<(), LinkError> {
+    if theirs == PROTOCOL_VERSION {
+        Ok(())
+    } else {
+        Err(LinkError::ProtocolMismatch {
+            ours: PROTOCOL_VERSION,
+            theirs,
+        })
+    }
+}
+
+/// A firmware's version.
+#[allow(missing_docs)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Version {
+    pub major: u8,
+    pub minor: u8,
+    pub patch: u8,
+}
+
+/// What the controller can take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Capacities {
+    /// Most hollow features of a slice ([`MAX_HOLES`](crate::config::MAX_HOLES), or the
+    /// assembler's `HOLES` if fewer).
+    pub max_holes: u16,
+    /// Most vertices of one stored polygon ([`MAX_VERTICES`](crate::config::MAX_VERTICES)).
+    pub max_vertices: u32,
+    /// Most vertices of all the uploaded contours together (the assembler's `POINTS`):
+    /// contours beyond [`MAX_VERTICES`](crate::config::MAX_VERTICES) are simplified on the
+    /// controller.
+    pub max_points: u32,
+    /// Material channels.
+    pub channels: u8,
+}
+
+/// A run of one contour's vertices: `data` holds them in integer micrometres, the first
+/// absolute and the rest as deltas from the one before, each coordinate a zigzag varint
+/// ([`contour`](super::contour)). Each chunk decodes on its own.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContourChunk {
+    /// The contour.
+    pub feature: FeatureId,
+    /// Index of the chunk's first vertex in the contour.
+    pub start: u32,
+    /// The vertices.
+    pub data: Vec<u8, CHUNK_BYTES>,
+}
+
+/// Host to controller.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostMsg {
+    /// Opens a session (variant 0, protocol first, in every version).
+    Hello {
+        /// [`PROTOCOL_VERSION`] of the host.
+        protocol: u16,
+    },
+    /// The printer to drive (validated by the controller).
+    Printer(PrinterConfig),
+    /// Starts a slice upload: its settings and the number of layers to print.
+    Job {
+        /// The slice's settings.
+        settings: Settings,
+        /// Layers to print.
+        layers: u16,
+    },
+    /// Starts a contour: the wall first, then holes 0, 1, ...
+    Feature {
+        /// Which.
+        feature: FeatureId,
+        /// Its material.
+        material: Material,
+        /// How many vertices its chunks will bring.
+        vertices: u32,
+    },
+    /// Vertices of the current contour.
+    Contour(ContourChunk),
+    /// Ends the slice: the controller builds and validates it.
+    EndSlice {
+        /// How many holes were sent.
+        holes: u8,
+    },
+    /// Starts printing the validated slice.
+    Start,
+    /// Pauses at the next block boundary.
+    Pause,
+    /// Resumes after a pause.
+    Resume,
+    /// Aborts the job (valves shut, motion dropped).
+    Abort,
+}
+
+/// Where the controller's job is.
+#[allow(missing_docs)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Phase {
+    Idle,
+    Receiving,
+    Planning,
+    Homing,
+    Printing,
+    Paused,
+    Done,
+    Aborted,
+    Failed,
+}
+
+/// Status and progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Status {
+    /// Where the job is.
+    pub phase: Phase,
+    /// The layer being printed (from 0).
+    pub layer: u16,
+    /// Layers of the job.
+    pub layers: u16,
+    /// Progress of the job, 0 to 100.
+    pub percent: u8,
+}
+
+/// One printed layer, as counted by the step engine and the valves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LayerTelemetry {
+    /// The layer.
+    pub layer: u16,
+    /// Steps per axis (X, Y, Z).
+    pub steps: [u32; AXES],
+    /// Valve openings per channel.
+    pub valve_openings: [u32; CHANNELS],
+    /// Time each valve was open, timer ticks.
+    pub valve_open_ticks: [u64; CHANNELS],
+    /// The layer's print time, timer ticks.
+    pub print_ticks: u64,
+}
+
+/// Telemetry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Telemetry {
+    /// The plan of the slice ([`Plan::digest`](crate::Plan::digest)): the host compares it
+    /// with its own.
+    Plan {
+        /// The digest.
+        digest: u64,
+    },
+    /// A printed layer.
+    Layer(LayerTelemetry),
+}
+
+/// A typed error of the controller, the same values the host prints.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum RemoteError {
+    /// The slice was refused (or could not be planned).
+    Slice(Error),
+    /// The printer configuration was refused ([`From`] gives the
+    /// [`PrinterError`](crate::motion::config::PrinterError)).
+    Printer(WirePrinterError),
+    /// The machine stopped.
+    Machine(Fault),
+    /// The link or the slice assembler refused a message.
+    Link(LinkError),
+}
+
+impl fmt::Display for RemoteError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RemoteError::Slice(e) => e.fmt(f),
+            RemoteError::Printer(e) => e.fmt(f),
+            RemoteError::Machine(e) => write!(f, "the machine stopped: {e:?}"),
+            RemoteError::Link(e) => e.fmt(f),
+        }
+    }
+}
+
+/// Controller to host.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum CtrlMsg {
+    /// Answers the host's hello (variant 0, protocol first, in every version).
+    Hello {
+        /// [`PROTOCOL_VERSION`] of the controller.
+        protocol: u16,
+        /// The firmware's version.
+        firmware: Version,
+        /// What it can take.
+        capacities: Capacities,
+    },
+    /// The printer configuration was accepted.
+    PrinterAccepted,
+    /// The slice arrived whole and validated.
+    SliceAccepted {
+        /// Its holes.
+        holes: u8,
+        /// Its vertices as stored (after any simplification).
+        vertices: u32,
+    },
+    /// Status and progress.
+    Status(Status),
+    /// Telemetry.
+    Telemetry(Telemetry),
+    /// A refusal or a fault.
+    Error(RemoteError),
+}
