@@ -464,6 +464,7 @@ fn run_simulation(
     let channels = cfg.channels().len();
     let road = slice.settings().road_width;
     let mut docs = Vec::new();
+    let mut telemetry = Vec::new();
     for l in &built {
         let s = simulate::simulate_layer(cfg, l, &mut meter, road, &field_fn)
             .map_err(|e| format!("layer {}: {e}", l.index))?;
@@ -501,13 +502,18 @@ fn run_simulation(
             s.simulated.spill,
         );
         docs.push(simulate::layer_json(&s, channels).map_err(|e| e.to_string())?);
+        telemetry.push(simulate::telemetry_json(&s, channels));
     }
     let name = if file.name.is_empty() {
         "slice"
     } else {
         &file.name
     };
-    let doc = serde_json::json!({ "slice": name, "layers": docs });
+    let doc = serde_json::json!({
+        "slice": name,
+        "layers": docs,
+        "telemetry": {"digest": format!("{:016x}", plan.digest()), "layers": telemetry},
+    });
     staged.write(
         &out.join("simulation.json"),
         serde_json::to_string_pretty(&doc)

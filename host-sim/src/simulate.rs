@@ -3,6 +3,8 @@
 //! the pin trace.
 
 use hollowpath::geometry::Point;
+use hollowpath::link::message::LayerTelemetry;
+use hollowpath::motion::machine::Counters;
 use hollowpath::motion::PrinterConfig;
 use hollowpath::toolpath::moves::Move;
 use hollowpath::Material;
@@ -10,7 +12,7 @@ use serde_json::{json, Value};
 
 use crate::layers::Layer;
 use crate::metrics::{planned_moves, LayerMetrics, Meter};
-use crate::virtual_printer::{rebuild, run_layer, Rebuild, SimError, TraceFigures};
+use crate::virtual_printer::{rebuild, run_layer_counted, Rebuild, SimError, TraceFigures};
 
 /// One simulated layer.
 #[derive(Clone, Debug)]
@@ -23,6 +25,8 @@ pub struct SimulatedLayer {
     pub simulated: LayerMetrics,
     /// The trace's figures.
     pub figures: TraceFigures,
+    /// What the machine counted (the controller's telemetry of the layer).
+    pub counters: Counters,
     /// The planned moves from home (a travel to the first vertex, then the layer's moves).
     pub planned_moves: Vec<Move>,
     /// The rebuilt moves.
@@ -58,7 +62,7 @@ pub fn simulate_layer(
 ) -> Result<SimulatedLayer, SimError> {
     let moves = machine_moves(cfg, layer);
     let z = (layer.index + 1) as f32 * cfg.layer_height;
-    let trace = run_layer(cfg, &moves, z)?;
+    let (trace, counters) = run_layer_counted(cfg, &moves, z)?;
     let rebuilt = rebuild(cfg, &trace, &Rebuild::for_road_width(road_width));
     drop(trace);
     let planned = meter.measure(layer.pattern, &layer.path, field);
@@ -68,6 +72,7 @@ pub fn simulate_layer(
         planned,
         simulated,
         figures: rebuilt.figures,
+        counters,
         planned_moves: moves,
         rebuilt_moves: rebuilt.moves,
     })
@@ -90,4 +95,17 @@ pub fn layer_json(s: &SimulatedLayer, channels: usize) -> Result<Value, serde_js
         "min_pulse_ticks": f.min_pulse_ticks,
         "print_time_s": f.print_time_s,
     }))
+}
+
+/// The layer's telemetry as the controller reports it over the link (`hollowpath print
+/// --report`), computed by the same machine on the host: the two compare key by key.
+pub fn telemetry_json(s: &SimulatedLayer, channels: usize) -> Value {
+    let t = LayerTelemetry::from_counters(u16::try_from(s.index).unwrap_or(u16::MAX), &s.counters);
+    json!({
+        "layer": s.index,
+        "steps": {"x": t.steps[0], "y": t.steps[1], "z": t.steps[2]},
+        "valve_openings": &t.valve_openings[..channels],
+        "valve_open_ticks": &t.valve_open_ticks[..channels],
+        "print_ticks": t.print_ticks,
+    })
 }

@@ -38,6 +38,7 @@ use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::config::CHANNELS;
 use hollowpath::motion::config::AXES;
+use hollowpath::motion::machine::Counters;
 use hollowpath::motion::{Board, Machine, PrinterConfig, Refused, State};
 use hollowpath::toolpath::moves::Move;
 
@@ -393,9 +394,21 @@ impl VirtualPrinter {
 /// Runs one layer's `moves` at height `z` on a fresh virtual printer from home; the trace of
 /// the layer (homing excluded).
 pub fn run_layer(cfg: &PrinterConfig, moves: &[Move], z: f32) -> Result<Trace, SimError> {
+    run_layer_counted(cfg, moves, z).map(|(t, _)| t)
+}
+
+/// As [`run_layer`], with what the machine counted over the layer (its telemetry: steps,
+/// valve openings and open ticks, print ticks; homing excluded).
+pub fn run_layer_counted(
+    cfg: &PrinterConfig,
+    moves: &[Move],
+    z: f32,
+) -> Result<(Trace, Counters), SimError> {
     let mut p = VirtualPrinter::new(cfg)?;
     let start = p.board.take_trace();
+    let before = p.machine.counters();
     p.run(moves, z)?;
+    let counted = p.machine.counters().since(&before);
     let mut t = p.board.take_trace();
     // Times from the layer's start.
     let t0 = start.now;
@@ -406,7 +419,7 @@ pub fn run_layer(cfg: &PrinterConfig, moves: &[Move], z: f32) -> Result<Trace, S
         d.t -= t0;
     }
     t.now -= t0;
-    Ok(t)
+    Ok((t, counted))
 }
 
 pub use crate::virtual_rebuild::{rebuild, Rebuild, Rebuilt, TraceFigures};

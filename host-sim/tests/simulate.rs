@@ -254,7 +254,29 @@ fn simulate_writes_simulation_json_and_pictures() {
         assert_eq!(l["steps"]["z"].as_i64().unwrap(), 960 * (k as i64 + 1));
         let png = std::fs::read(out.join(format!("layer-{k}-simulated.png"))).unwrap();
         assert_eq!(&png[1..4], b"PNG");
+        // The controller's telemetry, counted by the machine, agrees with the pin trace:
+        // pulses per axis, openings per channel, open time within a segment per opening.
+        let t = &doc["telemetry"]["layers"][k];
+        for axis in ["x", "y", "z"] {
+            assert_eq!(t["steps"][axis], l["pulses"][axis], "{t} {l}");
+        }
+        assert_eq!(t["valve_openings"], l["valve_openings"], "{t} {l}");
+        for c in 0..4 {
+            let ticks = t["valve_open_ticks"][c].as_u64().unwrap() as f64;
+            let s = l["valve_open_s"][c].as_f64().unwrap();
+            let openings = l["valve_openings"][c].as_f64().unwrap();
+            assert!(
+                (ticks / 1e6 - s).abs() <= 0.0015 * (openings + 1.0),
+                "channel {c}: {ticks} ticks, {s} s"
+            );
+        }
+        let print = t["print_ticks"].as_u64().unwrap() as f64 / 1e6;
+        assert!(
+            (print - l["print_time_s"].as_f64().unwrap()).abs() < 0.01,
+            "{t} {l}"
+        );
     }
+    assert_eq!(doc["telemetry"]["digest"].as_str().unwrap().len(), 16);
 }
 
 #[test]

@@ -164,6 +164,25 @@ pub struct LayerTelemetry {
     pub print_ticks: u64,
 }
 
+impl LayerTelemetry {
+    /// Layer `layer`'s figures from what the machine drove over it
+    /// ([`Counters::since`](crate::motion::machine::Counters::since)); a count past `u32`
+    /// saturates (a layer of more than 4 billion steps on an axis is not a layer).
+    pub fn from_counters(layer: u16, c: &crate::motion::machine::Counters) -> LayerTelemetry {
+        let mut steps = [0u32; AXES];
+        for (s, &n) in steps.iter_mut().zip(c.steps.iter()) {
+            *s = u32::try_from(n).unwrap_or(u32::MAX);
+        }
+        LayerTelemetry {
+            layer,
+            steps,
+            valve_openings: c.valve_openings,
+            valve_open_ticks: c.valve_open_ticks,
+            print_ticks: c.ticks,
+        }
+    }
+}
+
 /// Telemetry.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Telemetry {

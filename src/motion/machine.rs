@@ -14,6 +14,7 @@ use super::planner::{Block, BlockMaker, OutOfRange, Planner};
 use super::stepper::{SegmentGen, StepTimer, Stepper, Ticks};
 use super::valve::Valves;
 use super::Board;
+use crate::config::CHANNELS;
 use crate::toolpath::moves::Move;
 use embedded_hal::digital::{InputPin, OutputPin};
 
@@ -60,6 +61,39 @@ pub enum State {
     Paused,
     /// Shut down (valves shut, motion dropped) until rebuilt.
     Stopped(Fault),
+}
+
+/// What the machine has driven so far: the figures a layer's telemetry reports, as the
+/// difference of two readings ([`Counters::since`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Step pulses per axis.
+    pub steps: [u64; AXES],
+    /// Openings per valve channel (duty from 0 to more).
+    pub valve_openings: [u32; CHANNELS],
+    /// Timer ticks each channel was open.
+    pub valve_open_ticks: [u64; CHANNELS],
+    /// Timer ticks of the segments run (moves and dwells; pauses not).
+    pub ticks: u64,
+}
+
+impl Counters {
+    /// What happened between `earlier` and `self`.
+    pub fn since(&self, earlier: &Counters) -> Counters {
+        let mut d = Counters {
+            ticks: self.ticks - earlier.ticks,
+            ..Counters::default()
+        };
+        for a in 0..AXES {
+            d.steps[a] = self.steps[a] - earlier.steps[a];
+        }
+        for c in 0..CHANNELS {
+            d.valve_openings[c] = self.valve_openings[c] - earlier.valve_openings[c];
+            d.valve_open_ticks[c] = self.valve_open_ticks[c] - earlier.valve_open_ticks[c];
+        }
+        d
+    }
 }
 
 /// A move the machine did not queue.
@@ -126,6 +160,17 @@ impl<const N: usize> Machine<N> {
             },
             cfg,
         })
+    }
+
+    /// What it has driven so far (a layer's figures are the difference of two readings).
+    pub fn counters(&self) -> Counters {
+        let (s, v) = (&self.stepper.stats, &self.valves.stats);
+        Counters {
+            steps: s.steps,
+            valve_openings: v.openings,
+            valve_open_ticks: v.open_ticks,
+            ticks: s.ticks,
+        }
     }
 
     /// The printer.
@@ -349,6 +394,7 @@ impl<const N: usize> Machine<N> {
             self.valves
                 .apply(board, &flows)
                 .map_err(|e| Fault::Valve { channel: e.channel })?;
+            self.valves.account(self.stepper.segment_ticks());
         }
         if next.is_none() {
             // Out of segments: at rest, nothing to deposit.

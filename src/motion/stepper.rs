@@ -287,6 +287,8 @@ pub struct StepStats {
     pub stretched: u64,
     /// Shortest gap between two DDA ticks, ticks.
     pub min_interval: u32,
+    /// Timer ticks of every segment run (moves and dwells, as stretched; pauses not).
+    pub ticks: u64,
 }
 
 /// The step routine's state.
@@ -307,6 +309,8 @@ pub struct Stepper {
     rem: u32,
     err: u32,
     seg_end: Ticks,
+    /// The loaded segment's duration, ticks (as stretched).
+    seg_ticks: u32,
     next_tick: Ticks,
     raised: [bool; AXES],
     dir_level: [Option<bool>; AXES],
@@ -342,6 +346,7 @@ impl Stepper {
             rem: 0,
             err: 0,
             seg_end: 0,
+            seg_ticks: 0,
             next_tick: 0,
             raised: [false; AXES],
             dir_level: [None; AXES],
@@ -363,6 +368,12 @@ impl Stepper {
     pub fn set_position(&mut self, position: [i32; AXES]) {
         self.position = position;
         self.dir_level = [None; AXES];
+    }
+
+    /// The duration of the segment being stepped, ticks (as stretched to keep the pulses
+    /// apart).
+    pub fn segment_ticks(&self) -> u32 {
+        self.seg_ticks
     }
 
     /// Whether nothing is being stepped.
@@ -443,6 +454,8 @@ impl Stepper {
         }
         self.major = major;
         self.left = major;
+        self.seg_ticks = ticks;
+        self.stats.ticks += ticks as u64;
         self.seg_end = start.wrapping_add(ticks);
         if let Some(base) = ticks.checked_div(major) {
             self.base = base;

@@ -152,6 +152,8 @@ pub struct ValveStats {
     pub openings: [u32; CHANNELS],
     /// Commands that asked for more than full flow (duty 1 was set).
     pub saturated: u32,
+    /// Timer ticks each channel was open (a duty above 0), segment by segment.
+    pub open_ticks: [u64; CHANNELS],
 }
 
 /// Every channel's controller.
@@ -318,6 +320,15 @@ impl Valves {
             }
         }
         Ok(())
+    }
+
+    /// Counts `ticks` of the segment now stepped as open time for every open channel.
+    pub fn account(&mut self, ticks: u32) {
+        for (c, ch) in self.ch.iter().enumerate() {
+            if ch.duty.unwrap_or(0) > 0 {
+                self.stats.open_ticks[c] += ticks as u64;
+            }
+        }
     }
 
     /// Shuts every channel, trying each even if one refuses; the first refusal is returned.
