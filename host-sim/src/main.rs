@@ -1,5 +1,7 @@
 //! `hollowpath`: plan, preview and measure scaffold slices on the PC with the printer's own core.
 
+use hollowpath::toolpath::moves::Move;
+use hollowpath::toolpath::Pattern;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -91,9 +93,15 @@ enum Command {
         /// The printer file (JSON; omitted keys take the default pneumatic printer's values).
         #[arg(long)]
         printer: Option<PathBuf>,
-        /// Number of layers (zigzag, offset spiral, zigzag, ...).
-        #[arg(long, default_value_t = 2, value_parser = layer_count)]
-        layers: usize,
+        /// Number of layers (zigzag, offset spiral, zigzag, ...; default 2, or with --gcode
+        /// every layer of the file).
+        #[arg(long, value_parser = layer_count)]
+        layers: Option<usize>,
+        /// Run this G-code file (ours, or a stock slicer's: G0/G1 with E, G90/G91, M82/M83,
+        /// G92, M165 mixes) through the printer's motion code instead of planning the slice;
+        /// the slice is what its deposit is measured against, in the file's coordinates.
+        #[arg(long)]
+        gcode: Option<PathBuf>,
         /// Output directory.
         #[arg(long, default_value = "out/sim")]
         out: PathBuf,
@@ -244,6 +252,7 @@ fn execute(cli: Cli) -> ExitCode {
             slice,
             printer,
             layers,
+            gcode,
             out,
         } => slice_file::load(&slice)
             .map_err(|e| format!("{}: {e}", slice.display()))
@@ -256,13 +265,21 @@ fn execute(cli: Cli) -> ExitCode {
                 };
                 cfg.check_slice(&f.slice)
                     .map_err(|e| format!("printer and slice: {e}"))?;
-                run_simulation(&f, &cfg, &out, layers, &slice)
+                let source = match &gcode {
+                    Some(g) => Source::Gcode(read_gcode(g)?),
+                    None => Source::Plan,
+                };
+                run_simulation(&f, &cfg, &out, layers, source, Some(&slice))
             }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
                 let g = out.join("demo.gcode");
-                run(&f, &out, 2, Fill::Offset, Some(&g), true, None)
+                run(&f, &out, 2, Fill::Offset, Some(&g), true, None)?;
+                // The same two layers on the default printer's virtual pins.
+                println!("\non the default printer (virtual pins, the print rebuilt from the pin trace):");
+                let cfg = hollowpath::motion::PrinterConfig::default();
+                run_simulation(&f, &cfg, &out.join("sim"), Some(2), Source::Plan, None)
             }),
     };
     match result {
@@ -439,44 +456,117 @@ fn run(
     Ok(())
 }
 
+/// What `simulate` runs: the slice's own plan, or a G-code file's layers.
+enum Source {
+    Plan,
+    Gcode(Vec<gcode::ParsedLayer>),
+}
+
+/// Largest G-code file `simulate --gcode` reads.
+const MAX_GCODE_BYTES: u64 = 256 << 20;
+
+fn read_gcode(path: &Path) -> Result<Vec<gcode::ParsedLayer>, String> {
+    use host_sim::json_file::{read_text, ReadError};
+    let text = read_text(path, MAX_GCODE_BYTES).map_err(|e| match e {
+        ReadError::Io(e) => format!("{}: {e}", path.display()),
+        ReadError::TooLarge(n) => format!("{}: larger than {n} bytes", path.display()),
+        ReadError::NotUtf8(at) => {
+            format!(
+                "{}: not a text file (byte {at} is not UTF-8)",
+                path.display()
+            )
+        }
+    })?;
+    let parsed = gcode::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let layers: Vec<_> = parsed
+        .into_iter()
+        .filter(|(_, path)| path.iter().any(|v| v.deposit))
+        .collect();
+    if layers.is_empty() {
+        return Err(format!(
+            "{}: no layer deposits anything (no G1 move with E)",
+            path.display()
+        ));
+    }
+    Ok(layers)
+}
+
 fn run_simulation(
     file: &slice_file::SliceFile,
     cfg: &hollowpath::motion::PrinterConfig,
     out: &Path,
-    count: usize,
-    input: &Path,
+    count: Option<usize>,
+    source: Source,
+    input: Option<&Path>,
 ) -> Result<(), String> {
-    let mut staged = Staged::new(Some(input));
+    let mut staged = Staged::new(input);
     let slice = &file.slice;
     let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
     let plan = planner.last_plan();
     hollowpath::verify::verify(slice, plan)
         .map_err(|v| format!("the plan failed its own check ({v:?}); please report this slice"))?;
-    let built = layers::layers(slice, plan, Fill::Offset, count)
-        .map_err(|e| format!("layers failed: {e}"))?;
+    // Each layer to run: its index, pattern, the moves from home, and what they state.
+    type Job = (usize, Pattern, Vec<Move>, Option<layers::Layer>);
+    let mut jobs: Vec<Job> = Vec::new();
+    match source {
+        Source::Plan => {
+            let built = layers::layers(slice, plan, Fill::Offset, count.unwrap_or(2))
+                .map_err(|e| format!("layers failed: {e}"))?;
+            for l in built {
+                let moves = simulate::machine_moves(cfg, &l);
+                jobs.push((l.index, l.pattern, moves, Some(l)));
+            }
+        }
+        Source::Gcode(parsed) => {
+            let n = count.unwrap_or(layers::MAX_LAYERS).min(parsed.len());
+            for (k, (name, path)) in parsed.into_iter().take(n).enumerate() {
+                let pattern = match name.as_deref() {
+                    Some("zigzag") => Pattern::Zigzag,
+                    Some("spiral") => Pattern::Spiral,
+                    _ => Pattern::Raster,
+                };
+                jobs.push((k, pattern, simulate::gcode_moves(cfg, &path), None));
+            }
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let field = BlendedField::new(slice, plan);
     let field_fn = |p| field.at(p);
     let (lo, hi) = slice.wall().bbox();
     let area = ((hi.x - lo.x + 2.0) * (hi.y - lo.y + 2.0)) as f64;
+    // As `plan`'s pictures: 20 px/mm, fewer for a large slice.
+    let px_per_mm = 20.0f32.min((16.0e6 / area).sqrt() as f32);
     let cell = (host_sim::metrics::CELL_MM as f64).max((area / 2.0e7).sqrt()) as f32;
     let mut meter = Meter::new(slice, Options::with_cell(cell));
     let channels = cfg.channels().len();
     let road = slice.settings().road_width;
     let mut docs = Vec::new();
     let mut telemetry = Vec::new();
-    for l in &built {
-        let s = simulate::simulate_layer(cfg, l, &mut meter, road, &field_fn)
-            .map_err(|e| format!("layer {}: {e}", l.index))?;
+    for (index, pattern, moves, layer) in jobs {
+        // What the moves state: the planned layer as printed, or the G-code's moves.
+        let planned = match &layer {
+            Some(l) => meter.measure(l.pattern, &l.path, &field_fn),
+            None => meter.measure_moves(pattern, &moves[1..], &field_fn),
+        };
+        let s = simulate::simulate_moves(
+            cfg, index, pattern, moves, planned, &mut meter, road, &field_fn,
+        )
+        .map_err(|e| format!("layer {index}: {e}"))?;
+        let l = &s;
+        let pattern_name = pattern.name();
+        staged.write(
+            &out.join(format!("layer-{}-simulated-deposit.png", l.index)),
+            &preview::deposit_png(meter.raster()),
+        )?;
         staged.write(
             &out.join(format!("layer-{}-simulated.png", l.index)),
-            &preview::deposit_png(meter.raster()),
+            &preview::layer_png(slice, &preview::moves_path(&l.rebuilt_moves), px_per_mm),
         )?;
         let f = &s.figures;
         println!(
             "layer {} ({}): {:.1} s; steps x {} y {} z {} ({} / {} / {} pulses), fastest {:.0} Hz, shortest pulse {} ticks; valve openings {:?} (all shut -> any open {}), open {:.1?} s",
             l.index,
-            l.pattern.name(),
+            pattern_name,
             f.print_time_s,
             f.net_steps[0],
             f.net_steps[1],
@@ -522,7 +612,7 @@ fn run_simulation(
     )?;
     staged.commit()?;
     println!(
-        "wrote {}/simulation.json, layer-K-simulated.png",
+        "wrote {}/simulation.json, layer-K-simulated.png (the rebuilt print by composition), layer-K-simulated-deposit.png",
         out.display()
     );
     Ok(())

@@ -4,6 +4,7 @@
 //! [`layer_svg`] writes SVG (y up, as in [`crate::render`]); [`layer_png`] paints a PNG with
 //! tiny-skia.
 
+use hollowpath::toolpath::moves::Move;
 use std::fmt::Write;
 
 use hollowpath::geometry::Point;
@@ -268,6 +269,30 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
     pixmap
         .encode_png()
         .expect("encoding an in-memory PNG cannot fail")
+}
+
+/// The moves a printer laid (constant width and mix each, e.g. rebuilt from a pin trace) as a
+/// path [`layer_png`] draws: each depositing move a vertex at its end with its width and mix,
+/// a travel wherever a move does not start where the last one ended.
+pub fn moves_path(moves: &[Move]) -> Vec<Vertex> {
+    let mut path: Vec<Vertex> = Vec::with_capacity(moves.len() + 1);
+    for m in moves {
+        if path.last().is_none_or(|v| v.at != m.from) {
+            path.push(Vertex {
+                at: m.from,
+                material: m.material,
+                width: m.width,
+                deposit: false,
+            });
+        }
+        path.push(Vertex {
+            at: m.to,
+            material: m.material,
+            width: m.width,
+            deposit: m.deposit,
+        });
+    }
+    path
 }
 
 /// [`deposit_png`]'s colour of printable ground left bare.

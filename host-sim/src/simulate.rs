@@ -7,6 +7,7 @@ use hollowpath::link::message::LayerTelemetry;
 use hollowpath::motion::machine::Counters;
 use hollowpath::motion::PrinterConfig;
 use hollowpath::toolpath::moves::Move;
+use hollowpath::toolpath::{Pattern, Vertex};
 use hollowpath::Material;
 use serde_json::{json, Value};
 
@@ -61,14 +62,39 @@ pub fn simulate_layer(
     field: &dyn Fn(Point) -> Option<Material>,
 ) -> Result<SimulatedLayer, SimError> {
     let moves = machine_moves(cfg, layer);
-    let z = (layer.index + 1) as f32 * cfg.layer_height;
+    let planned = meter.measure(layer.pattern, &layer.path, field);
+    simulate_moves(
+        cfg,
+        layer.index,
+        layer.pattern,
+        moves,
+        planned,
+        meter,
+        road_width,
+        field,
+    )
+}
+
+/// Runs `moves` (from home) as layer `index` on a virtual printer `cfg` and measures the print
+/// rebuilt from the pin trace on `meter` beside `planned` (what the moves state).
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_moves(
+    cfg: &PrinterConfig,
+    index: usize,
+    pattern: Pattern,
+    moves: Vec<Move>,
+    planned: LayerMetrics,
+    meter: &mut Meter,
+    road_width: f32,
+    field: &dyn Fn(Point) -> Option<Material>,
+) -> Result<SimulatedLayer, SimError> {
+    let z = (index + 1) as f32 * cfg.layer_height;
     let (trace, counters) = run_layer_counted(cfg, &moves, z)?;
     let rebuilt = rebuild(cfg, &trace, &Rebuild::for_road_width(road_width));
     drop(trace);
-    let planned = meter.measure(layer.pattern, &layer.path, field);
-    let simulated = meter.measure_moves(layer.pattern, &rebuilt.moves, field);
+    let simulated = meter.measure_moves(pattern, &rebuilt.moves, field);
     Ok(SimulatedLayer {
-        index: layer.index,
+        index,
         planned,
         simulated,
         figures: rebuilt.figures,
@@ -76,6 +102,24 @@ pub fn simulate_layer(
         planned_moves: moves,
         rebuilt_moves: rebuilt.moves,
     })
+}
+
+/// A G-code layer's moves as the machine is fed them: a travel from home to its first vertex,
+/// then one move per G-code move at the width and mix the file states
+/// ([`gcode::printed_moves`](crate::gcode::printed_moves)).
+pub fn gcode_moves(cfg: &PrinterConfig, path: &[Vertex]) -> Vec<Move> {
+    let mut moves = Vec::with_capacity(path.len() + 1);
+    if let Some(first) = path.first() {
+        moves.push(Move {
+            from: Point::new(cfg.home[0], cfg.home[1]),
+            to: first.at,
+            width: first.width,
+            material: first.material,
+            deposit: false,
+        });
+    }
+    moves.extend(crate::gcode::printed_moves(path));
+    moves
 }
 
 /// The layer's entry of `simulation.json`.

@@ -149,6 +149,11 @@ fn demo_runs_on_the_built_in_slice() {
     assert!(out.join("demo.gcode").is_file() && out.join("layer-1.png").is_file());
     let doc = read_json(&out.join("metrics.json"));
     assert_eq!(doc["baseline"]["pattern"], "raster");
+    // The same layers simulated on the default printer, figures shown.
+    assert!(stdout.contains("simulated starts"), "{stdout}");
+    let sim = read_json(&out.join("sim").join("simulation.json"));
+    assert_eq!(sim["layers"].as_array().unwrap().len(), 2);
+    assert!(out.join("sim").join("layer-1-simulated.png").is_file());
 }
 
 #[test]

@@ -252,8 +252,10 @@ fn simulate_writes_simulation_json_and_pictures() {
         assert!(l["max_step_rate_hz"].as_f64().unwrap() > 1000.0);
         assert!(l["print_time_s"].as_f64().unwrap() > 10.0);
         assert_eq!(l["steps"]["z"].as_i64().unwrap(), 960 * (k as i64 + 1));
-        let png = std::fs::read(out.join(format!("layer-{k}-simulated.png"))).unwrap();
-        assert_eq!(&png[1..4], b"PNG");
+        for name in ["simulated", "simulated-deposit"] {
+            let png = std::fs::read(out.join(format!("layer-{k}-{name}.png"))).unwrap();
+            assert_eq!(&png[1..4], b"PNG");
+        }
         // The controller's telemetry, counted by the machine, agrees with the pin trace:
         // pulses per axis, openings per channel, open time within a segment per opening.
         let t = &doc["telemetry"]["layers"][k];
@@ -400,4 +402,100 @@ fn an_oversized_printer_file_is_refused_as_too_large() {
     std::fs::write(&path, "{}").unwrap();
     assert!(printer_file::load(&path).is_ok());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `simulate --gcode` runs a G-code file through the same motion code: our own export of a
+/// layer prints as that layer does, a stock slicer's dialect (absolute `E`, `G92`, no mix)
+/// runs too, and a file that extrudes nothing is refused.
+#[test]
+fn simulate_runs_gcode_files_through_the_same_motion_code() {
+    let out = tmp("gcode");
+    let gcode = out.join("print.gcode");
+    let o = hollowpath()
+        .args(["plan", SLICE, "--layers", "2", "--out"])
+        .arg(out.join("plan"))
+        .arg("--gcode")
+        .arg(&gcode)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sim = |args: &[&str], dir: &str| -> serde_json::Value {
+        let o = hollowpath()
+            .args(["simulate", SLICE])
+            .args(args)
+            .arg("--out")
+            .arg(out.join(dir))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_str(
+            &std::fs::read_to_string(out.join(dir).join("simulation.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let planned = sim(&["--layers", "2"], "sim-plan");
+    let from_gcode = sim(&["--gcode", gcode.to_str().unwrap()], "sim-gcode");
+    let (a, b) = (
+        planned["layers"].as_array().unwrap(),
+        from_gcode["layers"].as_array().unwrap(),
+    );
+    assert_eq!(a.len(), 2);
+    assert_eq!(b.len(), 2);
+    for (x, y) in a.iter().zip(b) {
+        for key in ["coverage", "overfill", "spill"] {
+            let (p, q) = (
+                x["simulated"][key].as_f64().unwrap(),
+                y["simulated"][key].as_f64().unwrap(),
+            );
+            assert!((p - q).abs() < 0.002, "{key}: plan {p} G-code {q}");
+        }
+        assert_eq!(x["simulated"]["starts"], y["simulated"]["starts"]);
+    }
+
+    // A stock slicer's dialect: absolute extrusion, a reset, a perimeter and two infill lines.
+    let stock = out.join("stock.gcode");
+    let mut text = String::from("; stock\nG90\nM82\nG92 E0\nG0 X8 Y0 Z0.3 F3000\n");
+    let mut e = 0.0;
+    let ring: Vec<(f64, f64)> = (0..=72)
+        .map(|k| {
+            let t = k as f64 * std::f64::consts::TAU / 72.0;
+            (10.2 * t.cos(), 10.2 * t.sin())
+        })
+        .collect();
+    text += &format!("G0 X{:.3} Y{:.3}\n", ring[0].0, ring[0].1);
+    for w in ring.windows(2) {
+        let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+        e += host_sim::gcode::filament_for(0.4, 0.3, len);
+        text += &format!("G1 X{:.3} Y{:.3} E{e:.5} F600\n", w[1].0, w[1].1);
+    }
+    std::fs::write(&stock, text).unwrap();
+    let s = sim(&["--gcode", stock.to_str().unwrap()], "sim-stock");
+    let l = &s["layers"][0];
+    assert_eq!(s["layers"].as_array().unwrap().len(), 1);
+    assert_eq!(l["planned"]["starts"], 1, "{l}");
+    assert_eq!(l["any_valve_openings"], 1, "{l}");
+    // One ring of road over a ring slice: some coverage, and the trace agrees with the file.
+    let (p, q) = (
+        l["planned"]["coverage"].as_f64().unwrap(),
+        l["simulated"]["coverage"].as_f64().unwrap(),
+    );
+    assert!(p > 0.01 && (p - q).abs() < 0.01, "{p} {q}");
+
+    // Nothing extruded: refused, naming the file.
+    let empty = out.join("empty.gcode");
+    std::fs::write(&empty, "G0 X1 Y1\nG1 X2 Y2\n").unwrap();
+    let o = hollowpath()
+        .args(["simulate", SLICE, "--gcode"])
+        .arg(&empty)
+        .arg("--out")
+        .arg(out.join("sim-empty"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("empty.gcode") && err.contains("deposits"),
+        "{err}"
+    );
+    assert!(!out.join("sim-empty").join("simulation.json").exists());
 }
