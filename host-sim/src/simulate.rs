@@ -37,8 +37,16 @@ pub struct SimulatedLayer {
 /// A layer's moves as the machine is fed them: a travel from home to its first vertex, then
 /// its moves ([`planned_moves`]).
 pub fn machine_moves(cfg: &PrinterConfig, layer: &Layer) -> Vec<Move> {
-    let mut moves = Vec::with_capacity(layer.path.len() + 1);
-    if let Some(first) = layer.path.first() {
+    let mut moves = from_home(cfg, &layer.path);
+    moves.extend(planned_moves(&layer.path));
+    moves
+}
+
+/// The travel from home to a path's first vertex (none for an empty path), with room for the
+/// path's moves after it.
+fn from_home(cfg: &PrinterConfig, path: &[Vertex]) -> Vec<Move> {
+    let mut moves = Vec::with_capacity(path.len() + 1);
+    if let Some(first) = path.first() {
         moves.push(Move {
             from: Point::new(cfg.home[0], cfg.home[1]),
             to: first.at,
@@ -47,7 +55,6 @@ pub fn machine_moves(cfg: &PrinterConfig, layer: &Layer) -> Vec<Move> {
             deposit: false,
         });
     }
-    moves.extend(planned_moves(&layer.path));
     moves
 }
 
@@ -108,16 +115,7 @@ pub fn simulate_moves(
 /// then one move per G-code move at the width and mix the file states
 /// ([`gcode::printed_moves`](crate::gcode::printed_moves)).
 pub fn gcode_moves(cfg: &PrinterConfig, path: &[Vertex]) -> Vec<Move> {
-    let mut moves = Vec::with_capacity(path.len() + 1);
-    if let Some(first) = path.first() {
-        moves.push(Move {
-            from: Point::new(cfg.home[0], cfg.home[1]),
-            to: first.at,
-            width: first.width,
-            material: first.material,
-            deposit: false,
-        });
-    }
+    let mut moves = from_home(cfg, path);
     moves.extend(crate::gcode::printed_moves(path));
     moves
 }
