@@ -8,6 +8,7 @@ pub mod gcode;
 pub mod json_file;
 pub mod layers;
 pub mod metrics;
+pub mod model;
 pub mod output;
 pub mod preview;
 pub mod printer_file;
@@ -16,6 +17,7 @@ pub mod raster;
 pub mod render;
 pub mod simulate;
 pub mod slice_file;
+pub mod staged;
 pub mod virtual_printer;
 pub mod virtual_rebuild;
 

@@ -204,6 +204,9 @@ impl Ends {
 
 /// Writes the zigzag layer of `plan` into `sink`.
 pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
+    if slice.holes().is_empty() {
+        return Err(Error::NoHoles);
+    }
     let half = 0.5 * slice.settings().road_width;
     let holes = slice.holes().len();
     // Cannot fail: a slice holds at most MAX_HOLES holes, and one wall.
