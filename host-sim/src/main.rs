@@ -32,6 +32,15 @@ enum PatternArg {
     Raster,
 }
 
+/// How `slice` lays a part's layers.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum LayersArg {
+    /// Zigzag on even layers, offset spiral on odd ones (as `plan --layers`).
+    Alternate,
+    /// The offset spiral on every layer.
+    Spiral,
+}
+
 /// Spiral control functions on the command line.
 #[derive(Clone, Copy, ValueEnum)]
 enum SpiralArg {
@@ -146,6 +155,10 @@ enum Command {
         /// Skip the per-layer PNG previews.
         #[arg(long)]
         no_previews: bool,
+        /// How the layers are laid: zigzag and offset spiral alternating, or the offset
+        /// spiral on every layer.
+        #[arg(long, value_enum, default_value = "alternate")]
+        layers: LayersArg,
     },
 }
 
@@ -245,6 +258,7 @@ fn execute(cli: Cli) -> ExitCode {
                     gcode: None,
                     jobs: 0,
                     previews: true,
+                    spiral_only: false,
                 })
             }),
         Command::Slice {
@@ -258,7 +272,9 @@ fn execute(cli: Cli) -> ExitCode {
             gcode,
             jobs,
             no_previews,
+            layers,
         } => slice(&SliceArgs {
+            spiral_only: layers == LayersArg::Spiral,
             out: out.unwrap_or_else(|| host_sim::model::run::default_out(model.as_deref())),
             model: if demo { None } else { model },
             demo_height,

@@ -164,6 +164,24 @@ fn merged(pts: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     while out.len() > 1 && close(out[0], out[out.len() - 1]) {
         out.pop();
     }
+    // Points on the straight line between their neighbours (where a cut crosses the diagonal
+    // of a flat quad) carry no shape: drop them, so that a prism cuts to the same contour at
+    // every height.
+    let mut k = 0;
+    while out.len() > 3 && k < out.len() {
+        let n = out.len();
+        let (a, p, b) = (out[(k + n - 1) % n], out[k], out[(k + 1) % n]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let l = dx.hypot(dy);
+        let off = ((p[0] - a[0]) * dy - (p[1] - a[1]) * dx).abs() / l.max(1e-300);
+        let between = (p[0] - a[0]) * dx + (p[1] - a[1]) * dy > 0.0
+            && (p[0] - b[0]) * dx + (p[1] - b[1]) * dy < 0.0;
+        if l > 0.0 && off < MERGE_MM && between {
+            out.remove(k);
+        } else {
+            k += 1;
+        }
+    }
     out
 }
 

@@ -53,11 +53,13 @@ pub struct PlannedLayer {
     pub islands: Vec<PlannedIsland>,
 }
 
-/// What preview images to draw.
+/// How a part's layers are planned.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Previews {
     /// Draw the road and deposition PNGs.
     pub png: bool,
+    /// Lay every layer as the offset spiral (instead of zigzag on even layers).
+    pub spiral_only: bool,
 }
 
 fn points(pts: &[[f64; 2]]) -> Vec<Point> {
@@ -107,7 +109,10 @@ fn plan_island(
     };
     let planner = crate::plan(&slice).map_err(fail)?;
     let plan = planner.last_plan();
-    let built = layers::layer(&slice, plan, Fill::Offset, layer.index).map_err(fail)?;
+    // `layers::layer` picks the pattern by the index: odd is the offset spiral.
+    let pick = if previews.spiral_only { 1 } else { layer.index };
+    let mut built = layers::layer(&slice, plan, Fill::Offset, pick).map_err(fail)?;
+    built.index = layer.index;
     let field = BlendedField::new(&slice, plan);
     let field_fn = |p| field.at(p);
     let (lo, hi) = slice.wall().bbox();

@@ -34,6 +34,8 @@ pub struct SliceArgs {
     pub jobs: usize,
     /// Draw the per-layer PNGs.
     pub previews: bool,
+    /// Every layer the offset spiral (not zigzag and spiral alternating).
+    pub spiral_only: bool,
 }
 
 /// Printing and travel feeds of the part's G-code, mm/s (as `hollowpath plan`).
@@ -135,7 +137,18 @@ pub fn run(args: &SliceArgs) -> Result<Vec<String>, String> {
     let tick = || bar.inc(1);
     let (w, h) = (road as f32, args.layer_height as f32);
     let planned = pool
-        .install(|| part::plan_layers(&sliced.layers, w, h, Previews { png: args.previews }, &tick))
+        .install(|| {
+            part::plan_layers(
+                &sliced.layers,
+                w,
+                h,
+                Previews {
+                    png: args.previews,
+                    spiral_only: args.spiral_only,
+                },
+                &tick,
+            )
+        })
         .map_err(|e| format!("{shown}: {e}"))?;
     bar.finish_and_clear();
 

@@ -77,6 +77,10 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
             "{} bytes, neither ASCII (\"solid ...\") nor a binary STL (at least 84 bytes)",
             bytes.len()
         )));
+    } else if looks_like_text(bytes) {
+        return Err(ModelError::NotStl(
+            "text that does not begin with \"solid\" (an ASCII STL does)".into(),
+        ));
     } else {
         let count = u32::from_le_bytes(bytes[80..84].try_into().unwrap_or([0; 4])) as u64;
         let expected = BINARY_HEADER + BINARY_TRIANGLE * count;
@@ -103,6 +107,15 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
         }
     }
     Ok(triangles)
+}
+
+/// Whether the first kilobyte is printable text (a binary STL's header may be text, but its
+/// triangles are not).
+fn looks_like_text(bytes: &[u8]) -> bool {
+    bytes
+        .iter()
+        .take(1024)
+        .all(|&b| b == b'\n' || b == b'\r' || b == b'\t' || (0x20..0x7f).contains(&b))
 }
 
 fn read_with_stl_io(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
