@@ -14,6 +14,7 @@ pub mod part;
 pub mod run;
 pub mod scaffold;
 pub mod stl;
+pub mod view3d;
 
 use rayon::prelude::*;
 

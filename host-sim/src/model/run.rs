@@ -287,6 +287,21 @@ fn write_outputs(
         TRAVEL_MM_S,
     );
     staged.write(&gcode_path, g.as_bytes())?;
+    if args.previews {
+        let pieces = super::view3d::pieces(planned, args.layer_height, 0.1);
+        staged.write(&out.join("part.png"), &super::view3d::png(&pieces, 1000))?;
+        let title = args
+            .model
+            .as_ref()
+            .and_then(|p| p.file_name())
+            .map_or("built-in scaffold".to_string(), |n| {
+                n.to_string_lossy().into_owned()
+            });
+        staged.write(
+            &out.join("part.html"),
+            super::view3d::html(&title, &pieces, args.layer_height).as_bytes(),
+        )?;
+    }
     if let Some(bytes) = model_stl {
         staged.write(&out.join("model.stl"), &bytes)?;
     }
@@ -303,7 +318,7 @@ fn write_outputs(
         "wrote {}/slices/layer-NNNN.json, {}metrics.json, {}",
         out.display(),
         if args.previews {
-            "previews/layer-NNNN.png, "
+            "previews/layer-NNNN.png, part.png and part.html (the part in 3D), "
         } else {
             ""
         },
