@@ -373,14 +373,14 @@ pub fn assign(
     // Channels numbered by their first hole (roots are their group's lowest hole number).
     let mut channel_of_root = vec![usize::MAX; holes.len()];
     let mut members: Vec<Vec<usize>> = Vec::new();
-    let mut of_hole = vec![0; holes.len()];
+    let mut of_hole = Vec::with_capacity(holes.len());
     for h in 0..holes.len() {
         let r = find(&mut parent, h);
         if channel_of_root[r] == usize::MAX {
             channel_of_root[r] = members.len();
             members.push(Vec::new());
         }
-        of_hole[h] = channel_of_root[r];
+        of_hole.push(channel_of_root[r]);
         members[channel_of_root[r]].push(h);
     }
     let mut out = Channels {

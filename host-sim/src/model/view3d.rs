@@ -82,10 +82,13 @@ fn project(p: [f64; 3], azimuth: f64, elevation: f64) -> (f64, f64, f64) {
     (x, p[2] * ce + y * se, y * ce - p[2] * se)
 }
 
+/// A piece on the screen: depth, ends (u, v), the piece.
+type Projected<'a> = (f64, (f64, f64), (f64, f64), &'a Piece);
+
 /// The part as a PNG about `size` pixels wide, seen from the front right, 35 degrees above.
 pub fn png(pieces: &[Piece], size: u32) -> Vec<u8> {
     let (az, el) = (-35f64.to_radians(), 35f64.to_radians());
-    let mut proj: Vec<(f64, (f64, f64), (f64, f64), &Piece)> = pieces
+    let mut proj: Vec<Projected<'_>> = pieces
         .iter()
         .map(|p| {
             let (ua, va, da) = project(p.a, az, el);
