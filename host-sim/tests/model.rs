@@ -581,3 +581,32 @@ fn slice_demo_runs_with_no_files() {
             .arg(out.join("slices/layer-0000.json")),
     );
 }
+
+#[test]
+fn an_edge_of_more_than_two_faces_is_refused_naming_it() {
+    // Two cubes sharing one edge: that edge belongs to four faces.
+    let cube = |o: [f64; 3]| {
+        Scaffold {
+            outline: rectangle(1.0, 1.0),
+            height: 1.0,
+            channels: Vec::new(),
+        }
+        .triangles()
+        .into_iter()
+        .map(move |t| t.map(|v| [v[0] + o[0], v[1] + o[1], v[2] + o[2]]))
+    };
+    let tris: Vec<Triangle> = cube([0.0; 3]).chain(cube([1.0, 1.0, 0.0])).collect();
+    let raw = stl::parse(&stl::to_binary(&tris)).unwrap();
+    match mesh::build(&raw) {
+        Err(ModelError::NonManifoldEdge { from, to, faces }) => {
+            assert_eq!(faces, 4);
+            for p in [from, to] {
+                assert!(
+                    (p[0] - 1.0).abs() < 1e-6 && (p[1] - 1.0).abs() < 1e-6,
+                    "{p:?}"
+                );
+            }
+        }
+        other => panic!("expected a non-manifold edge, got {other:?}"),
+    }
+}
