@@ -18,6 +18,7 @@ pub mod render;
 pub mod simulate;
 pub mod slice_file;
 pub mod staged;
+pub mod svg_file;
 pub mod virtual_printer;
 pub mod virtual_rebuild;
 

@@ -73,7 +73,8 @@ enum Command {
     /// blue) and layer-K.json (the path's vertices), DIR/metrics.json and, with --gcode,
     /// G-code.
     Plan {
-        /// The slice file (JSON, see SLICE_FORMAT.md).
+        /// The slice file (JSON, see SLICE_FORMAT.md), or a drawing (.svg: outlines nested into
+        /// a wall and holes, material from data-material or the fill colour).
         slice: PathBuf,
         /// Output directory.
         #[arg(long, default_value = "out")]
@@ -205,41 +206,35 @@ fn execute(cli: Cli) -> ExitCode {
             pattern,
             spiral,
             gcode,
-        } => slice_file::load(&slice)
-            .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| {
-                let fill = match pattern {
-                    PatternArg::Mcl => spiral.into(),
-                    PatternArg::Raster => Fill::Raster,
-                };
-                run(
-                    &f,
-                    &out,
-                    layers,
-                    fill,
-                    gcode.as_deref(),
-                    false,
-                    Some(&slice),
-                )
-            }),
+        } => load_slice(&slice).and_then(|f| {
+            let fill = match pattern {
+                PatternArg::Mcl => spiral.into(),
+                PatternArg::Raster => Fill::Raster,
+            };
+            run(
+                &f,
+                &out,
+                layers,
+                fill,
+                gcode.as_deref(),
+                false,
+                Some(&slice),
+            )
+        }),
         Command::Simulate {
             slice,
             printer,
             layers,
             out,
-        } => slice_file::load(&slice)
-            .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| {
-                let cfg = match &printer {
-                    Some(p) => {
-                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
-                    }
-                    None => hollowpath::motion::PrinterConfig::default(),
-                };
-                cfg.check_slice(&f.slice)
-                    .map_err(|e| format!("printer and slice: {e}"))?;
-                run_simulation(&f, &cfg, &out, layers, &slice)
-            }),
+        } => load_slice(&slice).and_then(|f| {
+            let cfg = match &printer {
+                Some(p) => printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?,
+                None => hollowpath::motion::PrinterConfig::default(),
+            };
+            cfg.check_slice(&f.slice)
+                .map_err(|e| format!("printer and slice: {e}"))?;
+            run_simulation(&f, &cfg, &out, layers, &slice)
+        }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
@@ -292,6 +287,18 @@ fn execute(cli: Cli) -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A slice file, or a drawing (`.svg`, through usvg).
+fn load_slice(path: &Path) -> Result<slice_file::SliceFile, String> {
+    let svg = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    if svg {
+        host_sim::svg_file::load(path).map_err(|e| format!("{}: {e}", path.display()))
+    } else {
+        slice_file::load(path).map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 

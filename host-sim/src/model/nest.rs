@@ -30,6 +30,17 @@ fn probe(poly: &[[f64; 2]]) -> [f64; 2] {
 /// Sorts `contours` into islands, ordered by the lower left corner of their walls (x, then
 /// y), their holes likewise.
 pub fn islands(contours: Vec<Vec<[f64; 2]>>) -> Vec<Island> {
+    nest(&contours)
+        .into_iter()
+        .map(|(w, holes)| Island {
+            outer: contours[w].clone(),
+            holes: holes.iter().map(|&h| contours[h].clone()).collect(),
+        })
+        .collect()
+}
+
+/// [`islands`] by index: each island's wall and its holes, as indices into `contours`.
+pub fn nest(contours: &[Vec<[f64; 2]>]) -> Vec<(usize, Vec<usize>)> {
     let n = contours.len();
     let probes: Vec<[f64; 2]> = contours.iter().map(|c| probe(c)).collect();
     let areas: Vec<f64> = contours.iter().map(|c| area(c).abs()).collect();
@@ -67,10 +78,7 @@ pub fn islands(contours: Vec<Vec<[f64; 2]>>) -> Vec<Island> {
                     .partial_cmp(&key(b))
                     .unwrap_or(std::cmp::Ordering::Equal)
             });
-            Island {
-                outer: contours[w].clone(),
-                holes: holes.iter().map(|&h| contours[h].clone()).collect(),
-            }
+            (w, holes)
         })
         .collect()
 }
