@@ -610,3 +610,45 @@ fn an_edge_of_more_than_two_faces_is_refused_naming_it() {
         other => panic!("expected a non-manifold edge, got {other:?}"),
     }
 }
+
+#[test]
+fn the_part_gcode_read_back_prints_what_metrics_json_measured() {
+    let dir = tmp("gcode");
+    let stl = write(
+        &dir,
+        "bend.stl",
+        &stl::to_binary(&bending_block().triangles()),
+    );
+    let out = dir.join("out");
+    run_ok(
+        hollowpath()
+            .args(["slice", "--layer-height", "0.3", "--no-previews", "--out"])
+            .arg(&out)
+            .arg(&stl),
+    );
+    let metrics = read_json(&out.join("metrics.json"));
+    let text = std::fs::read_to_string(out.join("part.gcode")).unwrap();
+    let back = host_sim::gcode::parse(&text).unwrap();
+    let files = slice_files(&out);
+    assert_eq!(back.len(), files.len());
+    host_sim::run_on_large_stack(|| {
+        for (k, (f, (_, parsed))) in files.iter().zip(&back).enumerate() {
+            let mut meter = host_sim::metrics::Meter::new(&f.slice, Default::default());
+            let pattern = hollowpath::toolpath::Pattern::Spiral;
+            let printed =
+                meter.measure_moves(pattern, &host_sim::gcode::printed_moves(parsed), &|_| None);
+            let planned = &metrics["layers"][k];
+            let what = format!("layer {k}: {planned} vs {printed:?}");
+            assert_eq!(planned["starts"], printed.starts, "{what}");
+            for key in ["coverage", "overfill", "spill"] {
+                let p = planned[key].as_f64().unwrap();
+                let q = match key {
+                    "coverage" => printed.coverage,
+                    "overfill" => printed.overfill,
+                    _ => printed.spill,
+                };
+                assert!((p - q).abs() < 3e-3, "{key}: {what}");
+            }
+        }
+    });
+}

@@ -59,6 +59,8 @@ pub enum ModelError {
     RoadWidth(f64),
     /// The model is too tall for the layer height (layers needed, at most).
     TooManyLayers(usize, usize),
+    /// The model is less than half a layer tall (its height, the layer height), mm.
+    TooThin(f64, f64),
     /// A layer's contours do not make a slice the planner accepts (the core's verdict).
     Layer {
         /// The layer, from 0 at the bed.
@@ -131,6 +133,10 @@ impl fmt::Display for ModelError {
             ModelError::TooManyLayers(n, max) => write!(
                 f,
                 "the model needs {n} layers at this layer height, at most {max} are sliced in one run"
+            ),
+            ModelError::TooThin(height, h) => write!(
+                f,
+                "the model is {height:.4} mm tall, less than half a layer of {h} mm: nothing to print"
             ),
             ModelError::Layer {
                 layer,

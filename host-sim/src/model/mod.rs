@@ -79,6 +79,9 @@ pub fn slice_mesh(
     }
     let (lo, hi) = mesh.bounds();
     let n = layer_count(hi[2] - lo[2], layer_height);
+    if n == 0 {
+        return Err(ModelError::TooThin(hi[2] - lo[2], layer_height));
+    }
     if n > MAX_LAYERS {
         return Err(ModelError::TooManyLayers(n, MAX_LAYERS));
     }
