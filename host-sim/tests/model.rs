@@ -478,7 +478,8 @@ fn separate_islands_print_one_road_each_with_one_travel_between() {
     }
     assert!(out.join("slices/layer-0000.json").exists());
     assert!(out.join("slices/layer-0000-1.json").exists());
-    assert!(out.join("previews/layer-0001-1.png").exists());
+    assert!(out.join("previews/layer-0001-1-deposit.png").exists());
+    assert!(!out.join("previews/layer-0001-1.png").exists());
     let g = std::fs::read_to_string(out.join("part.gcode")).unwrap();
     assert_eq!(g.matches("; island 1").count(), 2);
 }

@@ -34,8 +34,6 @@ pub struct PlannedIsland {
     pub channels: Vec<usize>,
     /// Its slice file (SLICE_FORMAT).
     pub slice_json: String,
-    /// Its preview (roads coloured by composition).
-    pub png: Vec<u8>,
     /// Its deposition map.
     pub deposit_png: Vec<u8>,
 }
@@ -51,6 +49,9 @@ pub struct PlannedLayer {
     pub pattern: Pattern,
     /// The islands in printing order.
     pub islands: Vec<PlannedIsland>,
+    /// The layer's preview: every island's roads coloured by composition, the travel between
+    /// them dashed (empty without previews).
+    pub png: Vec<u8>,
 }
 
 /// How a part's layers are planned.
@@ -93,43 +94,37 @@ pub fn island_slice(
     })
 }
 
-/// Plans island `i` of `layer`.
+/// Plans island `i` of `layer`, whose slice is `slice`.
 fn plan_island(
     layer: &ModelLayer,
     i: usize,
-    road_width: f32,
-    layer_height: f32,
+    slice: &Slice,
     previews: Previews,
 ) -> Result<PlannedIsland, ModelError> {
-    let slice = island_slice(layer, i, road_width, layer_height)?;
     let fail = |error| ModelError::Plan {
         layer: layer.index,
         island: i,
         error,
     };
-    let planner = crate::plan(&slice).map_err(fail)?;
+    let planner = crate::plan(slice).map_err(fail)?;
     let plan = planner.last_plan();
     // `layers::layer` picks the pattern by the index: odd is the offset spiral.
     let pick = if previews.spiral_only { 1 } else { layer.index };
-    let mut built = layers::layer(&slice, plan, Fill::Offset, pick).map_err(fail)?;
+    let mut built = layers::layer(slice, plan, Fill::Offset, pick).map_err(fail)?;
     built.index = layer.index;
-    let field = BlendedField::new(&slice, plan);
+    let field = BlendedField::new(slice, plan);
     let field_fn = |p| field.at(p);
     let (lo, hi) = slice.wall().bbox();
     let area = ((hi.x - lo.x + 2.0) * (hi.y - lo.y + 2.0)) as f64;
     let cell = (metrics::CELL_MM as f64).max((area / 2.0e7).sqrt()) as f32;
-    let px_per_mm = 20.0f32.min((16.0e6 / area).sqrt() as f32);
-    let mut meter = Meter::new(&slice, Options::with_cell(cell));
+    let mut meter = Meter::new(slice, Options::with_cell(cell));
     let m = meter.measure(built.pattern, &built.path, &field_fn);
-    let (png, deposit_png) = if previews.png {
-        (
-            crate::preview::layer_png(&slice, &built.path, px_per_mm),
-            crate::preview::deposit_png(meter.raster()),
-        )
+    let deposit_png = if previews.png {
+        crate::preview::deposit_png(meter.raster())
     } else {
-        (Vec::new(), Vec::new())
+        Vec::new()
     };
-    let start_notes = metrics::explain_starts(&slice, &built.path, &built.note);
+    let start_notes = metrics::explain_starts(slice, &built.path, &built.note);
     let channels: Vec<usize> = layer.islands[i].holes.iter().map(|h| h.2).collect();
     let description = format!(
         "layer {} island {i}, cut at z {:.4} mm; holes are channels {:?}",
@@ -147,7 +142,6 @@ fn plan_island(
         start_notes,
         note: built.note,
         channels,
-        png,
         deposit_png,
     })
 }
@@ -159,9 +153,33 @@ pub fn plan_layer(
     layer_height: f32,
     previews: Previews,
 ) -> Result<PlannedLayer, ModelError> {
-    let islands = (0..layer.islands.len())
-        .map(|i| plan_island(layer, i, road_width, layer_height, previews))
+    let slices = (0..layer.islands.len())
+        .map(|i| island_slice(layer, i, road_width, layer_height).map(Box::new))
         .collect::<Result<Vec<_>, _>>()?;
+    let islands = slices
+        .iter()
+        .enumerate()
+        .map(|(i, s)| plan_island(layer, i, s, previews))
+        .collect::<Result<Vec<_>, _>>()?;
+    let png = if previews.png {
+        // 20 px/mm, coarser only where the layer would exceed 16 megapixels.
+        let area: f64 = slices
+            .iter()
+            .map(|s| {
+                let (lo, hi) = s.wall().bbox();
+                ((hi.x - lo.x + 2.0) * (hi.y - lo.y + 2.0)) as f64
+            })
+            .sum();
+        let px_per_mm = 20.0f32.min((16.0e6 / area.max(1e-9)).sqrt() as f32);
+        let pairs: Vec<(&Slice, &[Vertex])> = slices
+            .iter()
+            .zip(&islands)
+            .map(|(s, i)| (&**s, &i.path[..]))
+            .collect();
+        crate::preview::islands_png(&pairs, px_per_mm)
+    } else {
+        Vec::new()
+    };
     let pattern = islands
         .iter()
         .map(|i| i.metrics.pattern.as_str())
@@ -172,6 +190,7 @@ pub fn plan_layer(
         z: layer.z,
         pattern,
         islands,
+        png,
     })
 }
 

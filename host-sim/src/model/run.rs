@@ -202,10 +202,6 @@ fn write_outputs(
             )?;
             if args.previews {
                 staged.write(
-                    &out.join("previews").join(name(l.index, i, ".png")),
-                    &isl.png,
-                )?;
-                staged.write(
                     &out.join("previews").join(name(l.index, i, "-deposit.png")),
                     &isl.deposit_png,
                 )?;
@@ -222,6 +218,13 @@ fn write_outputs(
                 });
             }
             islands.push(v);
+        }
+        if args.previews {
+            staged.write(
+                &out.join("previews")
+                    .join(format!("layer-{:04}.png", l.index)),
+                &l.png,
+            )?;
         }
         let t = part::totals(l);
         worst.0 = worst.0.min(t.coverage);
