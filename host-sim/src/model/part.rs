@@ -134,7 +134,7 @@ fn plan_island(
         slice_json: crate::slice_file::to_json(
             &format!("layer-{:04}", layer.index),
             &description,
-            &slice,
+            slice,
         ),
         printable_mm2: meter.printable_area(),
         path: built.path,
