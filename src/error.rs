@@ -287,7 +287,9 @@ pub enum Error {
         /// The offending value.
         value: f32,
     },
-    /// The slice has no hollow feature: there is nothing to decompose into cells.
+    /// The slice has no hollow feature: there is nothing to decompose into cells, so no MCL
+    /// layer (zigzag, MCL spiral) can be laid; the offset spiral lays such a slice from the
+    /// wall inwards.
     NoHoles,
     /// No material changing line fits between a hollow feature and its cell boundary (the
     /// printable region around it is too thin for a road, or every line was removed).
@@ -381,7 +383,9 @@ impl fmt::Display for Error {
                     setting.allowed()
                 )
             }
-            Error::NoHoles => f.write_str("the slice has no hollow feature to plan around"),
+            Error::NoHoles => f.write_str(
+                "the slice has no hollow feature to lay MCLs from (the offset spiral lays it)",
+            ),
             Error::NoRoom { hole } => write!(
                 f,
                 "hole {hole}: no material changing line fits between it and its cell boundary (too little room for a road)"

@@ -191,6 +191,14 @@ impl Planner {
         let plan = &mut self.plan;
         plan.stats = PlanStats::default();
         plan.mcls.clear();
+        if slice.holes().is_empty() {
+            // No feature to decompose around: no cells, no MCLs (the plan is empty and
+            // verifies; the offset spiral lays the slice from the wall inwards).
+            plan.halves.clear();
+            plan.cells.bisectors.clear();
+            plan.cells.branch_points.clear();
+            return Ok(());
+        }
         self.field.label_nodes(slice)?;
         plan.cells.build(slice, &self.field, &mut self.scratch)?;
         self.field.solve();

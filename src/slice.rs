@@ -542,13 +542,13 @@ pub struct Slice {
 }
 
 impl Slice {
-    /// Validates the slice as a whole: settings in range, at least one hole, every hole
-    /// strictly inside the wall, holes pairwise disjoint and not nested.
+    /// Validates the slice as a whole: settings in range, every hole strictly inside the
+    /// wall, holes pairwise disjoint and not nested. A slice without holes (a model's cap or
+    /// bottom layer) is valid: it plans to no MCLs and is laid by the offset spiral alone, from
+    /// the wall inwards; the MCL layers (zigzag, MCL spiral) refuse it with
+    /// [`Error::NoHoles`].
     pub fn new(wall: Feature, holes: &[Feature], settings: Settings) -> Result<Slice, Error> {
         settings.validate()?;
-        if holes.is_empty() {
-            return Err(Error::NoHoles);
-        }
         if holes.len() > MAX_HOLES {
             return Err(Error::TooManyHoles {
                 holes: holes.len().min(u32::MAX as usize) as u32,

@@ -303,3 +303,44 @@ fn a_travel_move_is_one_move_and_a_constant_road_is_not_split() {
     });
     assert_eq!(n, 1);
 }
+
+#[test]
+fn a_slice_without_holes_is_one_offset_spiral_road_and_the_mcl_layers_refuse_it() {
+    use hollowpath::{Error, FeatureId, Slice};
+    // A cap: a 6 mm square wall and nothing inside.
+    let square = [
+        Point::new(0.0, 0.0),
+        Point::new(6.0, 0.0),
+        Point::new(6.0, 6.0),
+        Point::new(0.0, 6.0),
+    ];
+    let wall = common::feature(FeatureId::Wall, &square, common::WALL);
+    let slice = Slice::new(wall, &[], Settings::default()).unwrap();
+    let mut planner = Box::new(Planner::new());
+    let plan = planner.plan(&slice).unwrap();
+    assert!(plan.mcls.is_empty() && plan.halves.is_empty());
+    hollowpath::verify::verify(&slice, plan).unwrap();
+    let mut work = Box::new(OffsetSpiral::new());
+    let mut path = Box::new(Path::new());
+    let stats = work.build(&slice, plan, &mut *path).unwrap();
+    check_layer(&slice, &path).unwrap();
+    assert_eq!(starts(&path), 1, "{stats:?}");
+    assert_eq!(stats.jumps, 0);
+    // Turns from the wall inwards, a road apart: 6 mm across holds 7 of 0.4 mm.
+    assert!(stats.levels >= 6, "{stats:?}");
+    // Everything deposited is the wall's material.
+    assert!(path.iter().all(|v| v.material == common::WALL));
+    let mut other = Box::new(Path::new());
+    assert_eq!(
+        zigzag(&slice, plan, &mut *other).unwrap_err(),
+        Error::NoHoles
+    );
+    assert_eq!(
+        spiral(&slice, plan, ControlFunction::Linear, &mut *other).unwrap_err(),
+        Error::NoHoles
+    );
+    // Deterministic.
+    let mut again = Box::new(Path::new());
+    work.build(&slice, plan, &mut *again).unwrap();
+    assert!(path.iter().eq(again.iter()));
+}

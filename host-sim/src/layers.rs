@@ -36,15 +36,22 @@ pub struct Layer {
     pub note: String,
 }
 
-/// Builds layer `index` of `fill`.
+/// Builds layer `index` of `fill`. A slice without holes (a cap) has no MCLs to lay a zigzag
+/// or an MCL spiral along: every one of its layers is the offset spiral, from the wall inwards.
 pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Layer, Error> {
     let mut path = Vec::new();
+    let fill = if slice.holes().is_empty() && fill != Fill::Raster {
+        Fill::Offset
+    } else {
+        fill
+    };
+    let wall_only = slice.holes().is_empty() && fill == Fill::Offset;
     let (pattern, note) = match fill {
         Fill::Raster => {
             raster(slice, plan, index, &mut path)?;
             (Pattern::Raster, String::from("raster baseline"))
         }
-        Fill::Mcl(_) | Fill::Offset if index % 2 == 0 => {
+        Fill::Mcl(_) | Fill::Offset if index % 2 == 0 && !wall_only => {
             let s = zigzag(slice, plan, &mut path)?;
             (
                 Pattern::Zigzag,
@@ -67,7 +74,8 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
             (
                 Pattern::Spiral,
                 format!(
-                    "spiral (offset): {} turns, {} loops joined by {} bridges, {} jump(s){}, {} small loop(s) left out",
+                    "{}spiral (offset): {} turns, {} loops joined by {} bridges, {} jump(s){}, {} small loop(s) left out",
+                    if wall_only { "no hollow feature, " } else { "" },
                     s.levels,
                     s.loops,
                     s.joins,

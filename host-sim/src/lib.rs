@@ -9,6 +9,7 @@ pub mod json_file;
 pub mod layers;
 pub mod link_client;
 pub mod metrics;
+pub mod model;
 pub mod output;
 pub mod preview;
 pub mod printer_file;
@@ -17,6 +18,8 @@ pub mod raster;
 pub mod render;
 pub mod simulate;
 pub mod slice_file;
+pub mod staged;
+pub mod svg_file;
 pub mod virtual_printer;
 pub mod virtual_rebuild;
 

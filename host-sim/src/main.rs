@@ -10,6 +10,8 @@ use hollowpath::toolpath::composition::BlendedField;
 use hollowpath::toolpath::spiral::ControlFunction;
 use host_sim::layers::{self, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
+use host_sim::model::run::SliceArgs;
+use host_sim::staged::Staged;
 use host_sim::{gcode, output, preview, printer_file, render, simulate, slice_file};
 
 #[derive(Parser)]
@@ -30,6 +32,15 @@ enum PatternArg {
     Mcl,
     /// The Cartesian raster baseline, as ordinary slicers fill.
     Raster,
+}
+
+/// How `slice` lays a part's layers.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum LayersArg {
+    /// Zigzag on even layers, offset spiral on odd ones (as `plan --layers`).
+    Alternate,
+    /// The offset spiral on every layer.
+    Spiral,
 }
 
 /// Spiral control functions on the command line.
@@ -64,7 +75,8 @@ enum Command {
     /// blue) and layer-K.json (the path's vertices), DIR/metrics.json and, with --gcode,
     /// G-code.
     Plan {
-        /// The slice file (JSON, see SLICE_FORMAT.md).
+        /// The slice file (JSON, see SLICE_FORMAT.md), or a drawing (.svg: outlines nested into
+        /// a wall and holes, material from data-material or the fill colour).
         slice: PathBuf,
         /// Output directory.
         #[arg(long, default_value = "out")]
@@ -107,12 +119,66 @@ enum Command {
         out: PathBuf,
     },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
-    /// G-code, and a metrics table against the raster baseline.
+    /// G-code, and a metrics table against the raster baseline; then slice the built-in
+    /// scaffold model (a 6 x 6 x 3 mm block with three channels, one bending) into DIR/part
+    /// as `hollowpath slice --demo` does.
     Demo {
         /// Output directory.
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
     },
+    /// Slice a model (STL, binary or ASCII) into layers, plan every layer (zigzag and offset
+    /// spiral alternating; the offset spiral alone where a layer has no hole) and write
+    /// DIR/slices/layer-NNNN.json (slice files `plan` reads), DIR/previews/layer-NNNN.png
+    /// and -deposit.png, DIR/metrics.json (per layer and island, and totals) and one G-code
+    /// file for the whole part.
+    Slice {
+        /// The model file (STL); omit with --demo.
+        #[arg(required_unless_present = "demo")]
+        model: Option<PathBuf>,
+        /// Slice the built-in scaffold instead of a file (also written as DIR/model.stl).
+        #[arg(long, conflicts_with = "model")]
+        demo: bool,
+        /// The built-in scaffold's height, mm (with --demo).
+        #[arg(long, default_value_t = 3.0, requires = "demo", value_parser = positive_mm)]
+        demo_height: f64,
+        /// Layer height, mm (the model is cut at the middle of every layer).
+        #[arg(long, value_parser = positive_mm, required_unless_present = "demo", default_value_if("demo", "true", "0.3"))]
+        layer_height: Option<f64>,
+        /// Road width, mm.
+        #[arg(long, default_value_t = 0.4, value_parser = positive_mm)]
+        road_width: f64,
+        /// Materials file (JSON): the wall's material and rules giving each channel its own;
+        /// without it the wall is channel A and every hollow feature channel B.
+        #[arg(long)]
+        materials: Option<PathBuf>,
+        /// Output directory (default out/MODEL-NAME).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// The G-code file (default DIR/part.gcode).
+        #[arg(long)]
+        gcode: Option<PathBuf>,
+        /// Planning threads (0: one per core); the output is the same for any number.
+        #[arg(long, default_value_t = 0)]
+        jobs: usize,
+        /// Skip the per-layer PNG previews.
+        #[arg(long)]
+        no_previews: bool,
+        /// How the layers are laid: zigzag and offset spiral alternating, or the offset
+        /// spiral on every layer.
+        #[arg(long, value_enum, default_value = "alternate")]
+        layers: LayersArg,
+    },
+}
+
+/// A length in mm: a positive finite number.
+fn positive_mm(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!(
+            "expected a length in mm greater than 0, not \"{s}\""
+        )),
+    }
 }
 
 /// `--layers`: 1 to [`layers::MAX_LAYERS`], checked before anything is read or built.
@@ -132,89 +198,6 @@ fn layer_count(s: &str) -> Result<usize, String> {
     Ok(n)
 }
 
-/// `path` as it will be once written: its folder canonicalised (when it exists), its name kept.
-fn resolved(path: &Path) -> Option<PathBuf> {
-    if let Ok(p) = path.canonicalize() {
-        return Some(p);
-    }
-    let name = path.file_name()?;
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    Some(parent.canonicalize().ok()?.join(name))
-}
-
-/// Output files, each written to a temporary name beside its final one and renamed into place
-/// only by [`Staged::commit`], once everything succeeded; dropped uncommitted, it removes the
-/// temporaries, so a failed run leaves nothing that looks like a result.
-struct Staged {
-    /// The input slice file (canonical), never to be overwritten.
-    input: Option<PathBuf>,
-    /// (temporary, final) paths written so far.
-    files: Vec<(PathBuf, PathBuf)>,
-}
-
-impl Staged {
-    fn new(input: Option<&Path>) -> Staged {
-        Staged {
-            input: input.and_then(|p| p.canonicalize().ok()),
-            files: Vec::new(),
-        }
-    }
-
-    /// Refuses `path` if it names the input slice file.
-    fn check(&self, path: &Path) -> Result<(), String> {
-        if self.input.is_some() && resolved(path) == self.input {
-            return Err(format!(
-                "refusing to write {}: it is the input slice file",
-                path.display()
-            ));
-        }
-        Ok(())
-    }
-
-    fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<(), String> {
-        self.check(path)?;
-        let name = path
-            .file_name()
-            .ok_or_else(|| format!("cannot write {}: not a file name", path.display()))?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".tmp-{}", std::process::id()));
-        let tmp = path.with_file_name(tmp_name);
-        std::fs::write(&tmp, bytes).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            format!("cannot write {}: {e}", path.display())
-        })?;
-        self.files.push((tmp, path.to_path_buf()));
-        Ok(())
-    }
-
-    fn commit(mut self) -> Result<(), String> {
-        let files = std::mem::take(&mut self.files);
-        let mut files = files.into_iter();
-        while let Some((tmp, path)) = files.next() {
-            if let Err(e) = std::fs::rename(&tmp, &path) {
-                let _ = std::fs::remove_file(&tmp);
-                for (t, _) in files {
-                    let _ = std::fs::remove_file(t);
-                }
-                return Err(format!("cannot write {}: {e}", path.display()));
-            }
-        }
-        Ok(())
-    }
-}
-
-impl Drop for Staged {
-    fn drop(&mut self) {
-        for (tmp, _) in &self.files {
-            let _ = std::fs::remove_file(tmp);
-        }
-    }
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // The core's `large` capacities put megabytes on the stack (a slice, the layers' working
@@ -231,46 +214,40 @@ fn execute(cli: Cli) -> ExitCode {
             pattern,
             spiral,
             gcode,
-        } => slice_file::load(&slice)
-            .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| {
-                let fill = match pattern {
-                    PatternArg::Mcl => spiral.into(),
-                    PatternArg::Raster => Fill::Raster,
-                };
-                run(
-                    &f,
-                    &out,
-                    layers,
-                    fill,
-                    gcode.as_deref(),
-                    false,
-                    Some(&slice),
-                )
-            }),
+        } => load_slice(&slice).and_then(|f| {
+            let fill = match pattern {
+                PatternArg::Mcl => spiral.into(),
+                PatternArg::Raster => Fill::Raster,
+            };
+            run(
+                &f,
+                &out,
+                layers,
+                fill,
+                gcode.as_deref(),
+                false,
+                Some(&slice),
+            )
+        }),
         Command::Simulate {
             slice,
             printer,
             layers,
             gcode,
             out,
-        } => slice_file::load(&slice)
-            .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| {
-                let cfg = match &printer {
-                    Some(p) => {
-                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
-                    }
-                    None => hollowpath::motion::PrinterConfig::default(),
-                };
-                cfg.check_slice(&f.slice)
-                    .map_err(|e| format!("printer and slice: {e}"))?;
-                let source = match &gcode {
-                    Some(g) => Source::Gcode(read_gcode(g)?),
-                    None => Source::Plan,
-                };
-                run_simulation(&f, &cfg, &out, layers, source, Some(&slice))
-            }),
+        } => load_slice(&slice).and_then(|f| {
+            let cfg = match &printer {
+                Some(p) => printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?,
+                None => hollowpath::motion::PrinterConfig::default(),
+            };
+            cfg.check_slice(&f.slice)
+                .map_err(|e| format!("printer and slice: {e}"))?;
+            let source = match &gcode {
+                Some(g) => Source::Gcode(read_gcode(g)?),
+                None => Source::Plan,
+            };
+            run_simulation(&f, &cfg, &out, layers, source, Some(&slice))
+        }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
@@ -280,7 +257,46 @@ fn execute(cli: Cli) -> ExitCode {
                 println!("\non the default printer (virtual pins, the print rebuilt from the pin trace):");
                 let cfg = hollowpath::motion::PrinterConfig::default();
                 run_simulation(&f, &cfg, &out.join("sim"), Some(2), Source::Plan, None)
+            })
+            .and_then(|()| {
+                println!("\nthe built-in scaffold model, sliced:");
+                slice(&SliceArgs {
+                    model: None,
+                    demo_height: 3.0,
+                    layer_height: 0.3,
+                    road_width: 0.4,
+                    materials: None,
+                    out: out.join("part"),
+                    gcode: None,
+                    jobs: 0,
+                    previews: true,
+                    spiral_only: false,
+                })
             }),
+        Command::Slice {
+            model,
+            demo,
+            demo_height,
+            layer_height,
+            road_width,
+            materials,
+            out,
+            gcode,
+            jobs,
+            no_previews,
+            layers,
+        } => slice(&SliceArgs {
+            spiral_only: layers == LayersArg::Spiral,
+            out: out.unwrap_or_else(|| host_sim::model::run::default_out(model.as_deref())),
+            model: if demo { None } else { model },
+            demo_height,
+            layer_height: layer_height.unwrap_or(0.3),
+            road_width,
+            materials,
+            gcode,
+            jobs,
+            previews: !no_previews,
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -289,6 +305,25 @@ fn execute(cli: Cli) -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A slice file, or a drawing (`.svg`, through usvg).
+fn load_slice(path: &Path) -> Result<slice_file::SliceFile, String> {
+    let svg = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    if svg {
+        host_sim::svg_file::load(path).map_err(|e| format!("{}: {e}", path.display()))
+    } else {
+        slice_file::load(path).map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
+fn slice(args: &SliceArgs) -> Result<(), String> {
+    for line in host_sim::model::run::run(args)? {
+        println!("{line}");
+    }
+    Ok(())
 }
 
 fn run(

@@ -176,8 +176,28 @@ fn paint_of(hex: &str, anti_alias: bool) -> Paint<'static> {
 /// Roads are painted without anti-aliasing, so roads that abut leave no pale seam that would
 /// read as a gap; outlines and travel are anti-aliased.
 pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
-    let (x0, y1, _, _) = frame(slice);
-    let (width, height) = png_size(slice, px_per_mm);
+    islands_png(&[(slice, path)], px_per_mm)
+}
+
+/// A layer of several islands (each a slice and its path, in printing order) as one PNG
+/// framing them all, as [`layer_png`] draws one, with the travel from each island's road to
+/// the next one's dashed.
+pub fn islands_png(islands: &[(&Slice, &[Vertex])], px_per_mm: f32) -> Vec<u8> {
+    let (mut x0, mut y1, mut x1, mut y0) = (f32::MAX, f32::MIN, f32::MIN, f32::MAX);
+    for (slice, _) in islands {
+        let (fx, fy, fw, fh) = frame(slice);
+        x0 = x0.min(fx);
+        y1 = y1.max(fy);
+        x1 = x1.max(fx + fw);
+        y0 = y0.min(fy - fh);
+    }
+    let (width, height) = match islands {
+        [(slice, _)] => png_size(slice, px_per_mm),
+        _ => (
+            (((x1 - x0) * px_per_mm).ceil() as u32).max(1),
+            (((y1 - y0) * px_per_mm).ceil() as u32).max(1),
+        ),
+    };
     let mut pixmap = Pixmap::new(width, height).expect("picture size is positive");
     pixmap.fill(Color::WHITE);
     let s = px_per_mm;
@@ -202,44 +222,46 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
         ..Stroke::default()
     };
     let id = Transform::identity();
-    for h in slice.holes() {
+    for h in islands.iter().flat_map(|(slice, _)| slice.holes()) {
         if let Some(p) = polyline(h.points(), true) {
             pixmap.fill_path(&p, &paint_of(HOLE_FILL, true), FillRule::Winding, id, None);
         }
     }
-    let w = slice.settings().road_width;
-    let stroke = |width: f32| Stroke {
-        width: width * s,
-        line_cap: LineCap::Round,
-        line_join: LineJoin::Round,
-        ..Stroke::default()
-    };
-    for run in road_runs(path) {
-        let verts = &path[run];
-        let base = colour(&verts[0].material);
-        if uniform(verts, w) {
-            let road = stroke(verts[0].width);
-            let pts: Vec<Point> = verts.iter().map(|v| v.at).collect();
-            // A road of one zero-length move is a dot: a round cap needs a direction.
-            let pts = if pts.len() == 2 && pts[0] == pts[1] {
-                vec![pts[0], Point::new(pts[0].x + 1e-4, pts[0].y)]
-            } else {
-                pts
-            };
-            if let Some(p) = polyline(&pts, false) {
-                pixmap.stroke_path(&p, &paint_of(&base, false), &road, id, None);
+    for (slice, path) in islands {
+        let w = slice.settings().road_width;
+        let stroke = |width: f32| Stroke {
+            width: width * s,
+            line_cap: LineCap::Round,
+            line_join: LineJoin::Round,
+            ..Stroke::default()
+        };
+        for run in road_runs(path) {
+            let verts = &path[run];
+            let base = colour(&verts[0].material);
+            if uniform(verts, w) {
+                let road = stroke(verts[0].width);
+                let pts: Vec<Point> = verts.iter().map(|v| v.at).collect();
+                // A road of one zero-length move is a dot: a round cap needs a direction.
+                let pts = if pts.len() == 2 && pts[0] == pts[1] {
+                    vec![pts[0], Point::new(pts[0].x + 1e-4, pts[0].y)]
+                } else {
+                    pts
+                };
+                if let Some(p) = polyline(&pts, false) {
+                    pixmap.stroke_path(&p, &paint_of(&base, false), &road, id, None);
+                }
+                continue;
             }
-            continue;
-        }
-        for (p, q, m, width) in shaded_pieces(verts, w) {
-            if let Some(line) = polyline(&[p, q], false) {
-                pixmap.stroke_path(
-                    &line,
-                    &paint_of(&colour(&m), false),
-                    &stroke(width),
-                    id,
-                    None,
-                );
+            for (p, q, m, width) in shaded_pieces(verts, w) {
+                if let Some(line) = polyline(&[p, q], false) {
+                    pixmap.stroke_path(
+                        &line,
+                        &paint_of(&colour(&m), false),
+                        &stroke(width),
+                        id,
+                        None,
+                    );
+                }
             }
         }
     }
@@ -248,22 +270,35 @@ pub fn layer_png(slice: &Slice, path: &[Vertex], px_per_mm: f32) -> Vec<u8> {
         dash: StrokeDash::new(vec![0.3 * s, 0.2 * s], 0.0),
         ..Stroke::default()
     };
-    for (k, v) in path.iter().enumerate().skip(1) {
-        if v.deposit || v.at == path[k - 1].at {
-            continue;
+    for (i, (_, path)) in islands.iter().enumerate() {
+        let from = i
+            .checked_sub(1)
+            .and_then(|j| islands[j].1.last())
+            .zip(path.first());
+        if let Some((a, b)) = from {
+            if let Some(p) = polyline(&[a.at, b.at], false) {
+                pixmap.stroke_path(&p, &paint_of(TRAVEL_COLOUR, true), &travel, id, None);
+            }
         }
-        if let Some(p) = polyline(&[path[k - 1].at, v.at], false) {
-            pixmap.stroke_path(&p, &paint_of(TRAVEL_COLOUR, true), &travel, id, None);
+        for (k, v) in path.iter().enumerate().skip(1) {
+            if v.deposit || v.at == path[k - 1].at {
+                continue;
+            }
+            if let Some(p) = polyline(&[path[k - 1].at, v.at], false) {
+                pixmap.stroke_path(&p, &paint_of(TRAVEL_COLOUR, true), &travel, id, None);
+            }
         }
     }
-    for (pts, m) in slice
-        .holes()
-        .iter()
-        .map(|h| (h.points(), h.material()))
-        .chain([(slice.wall().points(), slice.wall().material())])
-    {
-        if let Some(p) = polyline(pts, true) {
-            pixmap.stroke_path(&p, &paint_of(&colour(&m), true), &outline, id, None);
+    for (slice, _) in islands {
+        for (pts, m) in slice
+            .holes()
+            .iter()
+            .map(|h| (h.points(), h.material()))
+            .chain([(slice.wall().points(), slice.wall().material())])
+        {
+            if let Some(p) = polyline(pts, true) {
+                pixmap.stroke_path(&p, &paint_of(&colour(&m), true), &outline, id, None);
+            }
         }
     }
     pixmap

@@ -324,3 +324,26 @@ fn feature(id: FeatureId, v: &Value) -> Result<(Vec<Point>, Material), SliceFile
     }
     Ok((points, material))
 }
+
+/// The slice file of `slice` (`../shared/SLICE_FORMAT.md`): its wall and holes as the core
+/// holds them (counter-clockwise), their materials, and its road width and layer height; the
+/// other settings are the defaults for that road width, which [`parse`] gives them back.
+/// Reading it back gives the same slice.
+pub fn to_json(name: &str, description: &str, slice: &Slice) -> String {
+    let feature = |f: &hollowpath::Feature| {
+        serde_json::json!({
+            "points": f.points().iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
+            "material": f.material(),
+        })
+    };
+    let s = slice.settings();
+    let doc = serde_json::json!({
+        "name": name,
+        "description": description,
+        "units": "mm",
+        "outer": feature(slice.wall()),
+        "holes": slice.holes().iter().map(feature).collect::<Vec<_>>(),
+        "settings": { "road_width": s.road_width, "layer_height": s.layer_height },
+    });
+    serde_json::to_string_pretty(&doc).unwrap_or_default()
+}

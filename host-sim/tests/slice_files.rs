@@ -136,7 +136,6 @@ fn invalid_slices_name_the_feature_and_reason() {
             slice(SQUARE, &[SMALL], r#""layer_height": 0"#),
             "setting layer_height",
         ),
-        (slice(SQUARE, &[], ""), "no hollow feature"),
         (
             slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1.5, -0.5, 0]"),
             "hole 0: material fraction of channel 2 is negative",

@@ -106,6 +106,9 @@ pub fn spiral(
     f: ControlFunction,
     sink: &mut impl PathSink,
 ) -> Result<SpiralStats, Error> {
+    if slice.holes().is_empty() {
+        return Err(Error::NoHoles);
+    }
     let w = slice.settings().road_width;
     let holes = slice.holes().len();
     let mut stats = SpiralStats::default();

@@ -206,6 +206,9 @@ impl Ends {
 /// Writes the zigzag layer of `plan` into `sink`, spikes dropped
 /// ([`despike`](super::despike)).
 pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
+    if slice.holes().is_empty() {
+        return Err(Error::NoHoles);
+    }
     let mut despiked = Despike::new(sink, slice.settings().road_width);
     let stats = zigzag_into(slice, plan, &mut despiked)?;
     finish(&mut despiked)?;

@@ -1,0 +1,90 @@
+//! Output files staged under temporary names and renamed into place only once a whole run
+//! succeeded (`hollowpath plan`, `simulate`, `slice`).
+
+use std::path::{Path, PathBuf};
+
+/// `path` as it will be once written: its folder canonicalised (when it exists), its name kept.
+fn resolved(path: &Path) -> Option<PathBuf> {
+    if let Ok(p) = path.canonicalize() {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(parent.canonicalize().ok()?.join(name))
+}
+
+/// Output files, each written to a temporary name beside its final one and renamed into place
+/// only by [`Staged::commit`], once everything succeeded; dropped uncommitted, it removes the
+/// temporaries, so a failed run leaves nothing that looks like a result.
+pub struct Staged {
+    /// The input slice file (canonical), never to be overwritten.
+    input: Option<PathBuf>,
+    /// (temporary, final) paths written so far.
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Staged {
+    /// Nothing staged yet; `input` (the file read) is never overwritten.
+    pub fn new(input: Option<&Path>) -> Staged {
+        Staged {
+            input: input.and_then(|p| p.canonicalize().ok()),
+            files: Vec::new(),
+        }
+    }
+
+    /// Refuses `path` if it names the input file.
+    pub fn check(&self, path: &Path) -> Result<(), String> {
+        if self.input.is_some() && resolved(path) == self.input {
+            return Err(format!(
+                "refusing to write {}: it is the input slice file",
+                path.display()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Writes `bytes` to a temporary name beside `path`.
+    pub fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<(), String> {
+        self.check(path)?;
+        let name = path
+            .file_name()
+            .ok_or_else(|| format!("cannot write {}: not a file name", path.display()))?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(".tmp-{}", std::process::id()));
+        let tmp = path.with_file_name(tmp_name);
+        std::fs::write(&tmp, bytes).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            format!("cannot write {}: {e}", path.display())
+        })?;
+        self.files.push((tmp, path.to_path_buf()));
+        Ok(())
+    }
+
+    /// Renames every temporary into place.
+    pub fn commit(mut self) -> Result<(), String> {
+        let files = std::mem::take(&mut self.files);
+        let mut files = files.into_iter();
+        while let Some((tmp, path)) = files.next() {
+            if let Err(e) = std::fs::rename(&tmp, &path) {
+                let _ = std::fs::remove_file(&tmp);
+                for (t, _) in files {
+                    let _ = std::fs::remove_file(t);
+                }
+                return Err(format!("cannot write {}: {e}", path.display()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
