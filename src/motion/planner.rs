@@ -623,7 +623,7 @@ mod tests {
         let (mut x, mut y, mut seed) = (0.0f32, 0.0f32, 12345u32);
         for _ in 0..400 {
             seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
-            let a = (seed >> 8) as f32 / (1u32 << 24) as f32 * 6.283;
+            let a = (seed >> 8) as f32 / (1u32 << 24) as f32 * core::f32::consts::TAU;
             let r = 0.05 + ((seed >> 3) % 100) as f32 * 0.02;
             x += r * libm::cosf(a);
             y += r * libm::sinf(a);
