@@ -235,9 +235,12 @@ impl Valves {
             let k = ch.dead;
             let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
             let raw = q[1] + ch.tau * slope(q, k);
-            // Mid-road (the road still deposits a time constant on) never below HOLD of the
-            // flow asked for: a dip, not a shut valve (the module's essay).
-            let floor = if q[1] > 0.0 && at(c, k + ch.hold_horizon) > 0.0 {
+            // Mid-road (the road, in any channel, still deposits a time constant on) never
+            // below HOLD of the flow asked for: a dip, not a shut valve (the module's essay).
+            // So where the composition hands over from one channel to another, the one
+            // leaving holds until its share is 0 and the road never has every valve shut.
+            let road_on = (0..CHANNELS).any(|d| at(d, k + ch.hold_horizon) > 0.0);
+            let floor = if q[1] > 0.0 && road_on {
                 HOLD * q[1]
             } else {
                 0.0
