@@ -42,7 +42,10 @@
 //!   vertex carries its composition (blended along the MCLs) and its road width: a layer
 //!   widens or narrows its roads, within [`Settings::min_width`] .. [`Settings::max_width`], so
 //!   that neighbouring roads meet without gap or overlap where MCLs fan out or turns leave a
-//!   sliver, and never wider than twice the clearance from the features.
+//!   sliver, and never wider than twice the clearance from the features. The default
+//!   layers pass through [`Despike`](toolpath::despike::Despike), which drops a vertex where
+//!   the road would run a fraction of a road past and straight back (a dead stop for a
+//!   printer).
 //!
 //! * [`motion`]: a layer's moves on the printer. Blocks in whole steps (absolute targets,
 //!   so a path moves exactly its displacement) enter a look-ahead ring that replans corner
@@ -52,7 +55,10 @@
 //!   pins. The same segments carry the flow each valve channel must deliver (road width x
 //!   layer height x actual speed, split by the composition), turned into PWM duty through
 //!   the channel's calibration curve and commanded ahead of the motion by the valve's dead
-//!   time with its lag inverted. Homing, emergency stop, pause/resume and one shutdown path
+//!   time with its lag inverted; depositing blocks brake no faster than the valves shed
+//!   flow, and a dip mid-road holds a valve at its dead band's edge rather than shutting it.
+//!   The machine counts what it drove ([`Counters`](motion::machine::Counters)): the
+//!   telemetry of a layer. Homing, emergency stop, pause/resume and one shutdown path
 //!   sit on top, generic over a [`Board`](motion::Board) of pins and a
 //!   [`StepTimer`](motion::StepTimer), so a host's virtual printer runs the same code.
 //!
