@@ -415,7 +415,7 @@ pub struct Settings {
     /// spacing up to this, rather than leaving a gap.
     pub max_width: f32,
     /// `simplify_tolerance`: contours of more than
-    /// [`SIMPLIFY_ABOVE_VERTICES`](crate::config::SIMPLIFY_ABOVE_VERTICES) vertices are
+    /// [`SIMPLIFY_ABOVE_VERTICES`] vertices are
     /// simplified within this, mm, before planning ([`Slice::from_contours`]; default 0.005,
     /// at most a tenth of the road width; 0 keeps every vertex).
     pub simplify_tolerance: f32,
