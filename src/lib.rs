@@ -83,6 +83,7 @@ extern crate alloc;
 #[macro_use]
 mod fmt;
 
+pub mod app;
 pub mod cells;
 pub mod config;
 mod digest;

@@ -502,7 +502,13 @@ fn run_simulation(
             s.simulated.spill,
         );
         docs.push(simulate::layer_json(&s, channels).map_err(|e| e.to_string())?);
-        telemetry.push(simulate::telemetry_json(&s, channels));
+    }
+    // The controller's telemetry: the whole job on one virtual printer, through the core's
+    // job routine, as the controller prints it.
+    let counted = host_sim::virtual_printer::run_job_counted(cfg, slice, plan, count)
+        .map_err(|e| format!("job: {e}"))?;
+    for (k, c) in counted.iter().enumerate() {
+        telemetry.push(simulate::telemetry_json(k, c, channels));
     }
     let name = if file.name.is_empty() {
         "slice"
