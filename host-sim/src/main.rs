@@ -503,9 +503,16 @@ fn run_simulation(
         );
         docs.push(simulate::layer_json(&s, channels).map_err(|e| e.to_string())?);
     }
-    // The controller's telemetry: the whole job on one virtual printer, through the core's
-    // job routine, as the controller prints it.
-    let counted = host_sim::virtual_printer::run_job_counted(cfg, slice, plan, count)
+    // The controller's telemetry: the slice as the controller receives it (whole
+    // micrometres), its whole job on one virtual printer through the core's job routine, as
+    // the controller prints it.
+    let layers16 = u16::try_from(count).map_err(|_| "too many layers".to_string())?;
+    let uploaded = host_sim::link_client::as_uploaded(slice, layers16)
+        .map_err(|e| format!("the slice as uploaded: {e}"))?;
+    let up_planner =
+        host_sim::plan(&uploaded).map_err(|e| format!("planning the uploaded slice: {e}"))?;
+    let up_plan = up_planner.last_plan();
+    let counted = host_sim::virtual_printer::run_job_counted(cfg, &uploaded, up_plan, count)
         .map_err(|e| format!("job: {e}"))?;
     for (k, c) in counted.iter().enumerate() {
         telemetry.push(simulate::telemetry_json(k, c, channels));
@@ -518,7 +525,7 @@ fn run_simulation(
     let doc = serde_json::json!({
         "slice": name,
         "layers": docs,
-        "telemetry": {"digest": format!("{:016x}", plan.digest()), "layers": telemetry},
+        "telemetry": {"digest": format!("{:016x}", up_plan.digest()), "layers": telemetry},
     });
     staged.write(
         &out.join("simulation.json"),

@@ -24,7 +24,7 @@ use hollowpath::link::message::{
 use hollowpath::link::upload::upload;
 use hollowpath::motion::{Board, Fault, PrinterConfig, State};
 use hollowpath::FeatureId;
-use host_sim::link_client::{ClientError, LinkClient};
+use host_sim::link_client::{as_uploaded, LinkClient};
 use host_sim::{printer_file, slice_file, virtual_printer};
 
 type Pipe = Arc<Mutex<VecDeque<u8>>>;
@@ -186,11 +186,13 @@ impl Board for MockBoard {
 
 type TestApp = App<MAX_HOLES, { (MAX_HOLES + 1) * MAX_VERTICES }, 4>;
 
-/// The controller's link timers, in the app clock's microseconds (which jump while it steps).
+/// The controller's link timers, in the app clock's microseconds, which jump while it steps
+/// (a layer of 100 s prints in about half a second): the watchdog allows for the host
+/// thread being descheduled on a busy machine.
 const CTRL: LinkConfig = LinkConfig {
     retransmit_us: 200_000,
     keepalive_us: 100_000,
-    watchdog_us: 3_000_000,
+    watchdog_us: 30_000_000,
 };
 const HOST: LinkConfig = LinkConfig {
     retransmit_us: 30_000,
@@ -330,7 +332,9 @@ fn a_job_prints_with_the_telemetry_of_simulate_and_a_bad_slice_is_refused() {
         // The next job prints: two layers of four_holes on the CI printer.
         let f = slice_file::parse(host_sim::REFERENCE_SLICES[0].1).unwrap();
         client.upload(&f.slice, 2).unwrap();
-        let planner = host_sim::plan(&f.slice).unwrap();
+        // The controller plans and prints the slice as it arrived (whole micrometres).
+        let uploaded = as_uploaded(&f.slice, 2).unwrap();
+        let planner = host_sim::plan(&uploaded).unwrap();
         let digest = loop {
             match client.next_message(Duration::from_secs(30)).unwrap() {
                 Some(CtrlMsg::Telemetry(Telemetry::Plan { digest })) => break digest,
@@ -343,10 +347,19 @@ fn a_job_prints_with_the_telemetry_of_simulate_and_a_bad_slice_is_refused() {
         client.start().unwrap();
         let (phases, layers, errors) = until_done(&mut client, Duration::from_secs(120));
         assert!(errors.is_empty(), "{errors:?}");
+        // (The idle status after planning may still be on its way.)
+        let phases: Vec<Phase> = phases
+            .into_iter()
+            .skip_while(|p| *p == Phase::Idle)
+            .collect();
+        assert_eq!(
+            phases,
+            [Phase::Homing, Phase::Printing, Phase::Printing, Phase::Done]
+        );
         assert_eq!(phases.first(), Some(&Phase::Homing), "{phases:?}");
         assert_eq!(phases.last(), Some(&Phase::Done), "{phases:?}");
         let expected =
-            virtual_printer::run_job_counted(&cfg, &f.slice, planner.last_plan(), 2).unwrap();
+            virtual_printer::run_job_counted(&cfg, &uploaded, planner.last_plan(), 2).unwrap();
         assert_eq!(layers.len(), 2);
         for (k, (got, c)) in layers.iter().zip(&expected).enumerate() {
             assert_eq!(
@@ -374,7 +387,7 @@ fn a_silent_host_has_the_valves_closed_and_hears_why_on_reconnection() {
         client.hello().unwrap();
         client.send_printer(&ci_printer()).unwrap();
         let f = slice_file::parse(host_sim::REFERENCE_SLICES[0].1).unwrap();
-        client.upload(&f.slice, 4).unwrap();
+        client.upload(&f.slice, 40).unwrap();
         client.start().unwrap();
         // Wait for the first layer to be printing, then fall silent.
         loop {
