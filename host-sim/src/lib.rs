@@ -11,6 +11,7 @@ pub mod link_client;
 pub mod metrics;
 pub mod output;
 pub mod preview;
+pub mod print;
 pub mod printer_file;
 pub mod random_slice;
 pub mod raster;

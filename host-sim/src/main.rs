@@ -98,6 +98,27 @@ enum Command {
         #[arg(long, default_value = "out/sim")]
         out: PathBuf,
     },
+    /// Print a slice on the controller over the link (a serial port, or TCP to QEMU's
+    /// `-serial tcp:...`): progress as it comes, the telemetry in --report.
+    Print {
+        /// The slice file (JSON, see SLICE_FORMAT.md).
+        slice: PathBuf,
+        /// The serial port (e.g. /dev/ttyUSB0, or the pty QEMU's `-serial pty` opened).
+        #[arg(long, conflicts_with = "tcp", required_unless_present = "tcp")]
+        port: Option<String>,
+        /// HOST:PORT of a TCP serial line (QEMU's `-serial tcp:HOST:PORT,server=on`).
+        #[arg(long)]
+        tcp: Option<String>,
+        /// The printer file (JSON; omitted keys take the default printer's values).
+        #[arg(long)]
+        printer: Option<PathBuf>,
+        /// Number of layers (zigzag, offset spiral, zigzag, ...).
+        #[arg(long, default_value_t = 2, value_parser = layer_count)]
+        layers: usize,
+        /// Write the telemetry here (JSON: digest, layers, retransmitted).
+        #[arg(long)]
+        report: Option<PathBuf>,
+    },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
     /// G-code, and a metrics table against the raster baseline.
     Demo {
@@ -257,6 +278,51 @@ fn execute(cli: Cli) -> ExitCode {
                 cfg.check_slice(&f.slice)
                     .map_err(|e| format!("printer and slice: {e}"))?;
                 run_simulation(&f, &cfg, &out, layers, &slice)
+            }),
+        Command::Print {
+            slice,
+            port,
+            tcp,
+            printer,
+            layers,
+            report,
+        } => slice_file::load(&slice)
+            .map_err(|e| format!("{}: {e}", slice.display()))
+            .and_then(|f| {
+                let cfg = match &printer {
+                    Some(p) => {
+                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
+                    }
+                    None => hollowpath::motion::PrinterConfig::default(),
+                };
+                cfg.check_slice(&f.slice)
+                    .map_err(|e| format!("printer and slice: {e}"))?;
+                let stream = match (&port, &tcp) {
+                    (_, Some(addr)) => host_sim::print::open_tcp(addr)?,
+                    (Some(p), None) => host_sim::print::open_serial(p)?,
+                    (None, None) => return Err("--port or --tcp is needed".into()),
+                };
+                let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+                let flag = interrupted.clone();
+                let _ = ctrlc::set_handler(move || {
+                    flag.store(true, std::sync::atomic::Ordering::Relaxed)
+                });
+                let layers = u16::try_from(layers).map_err(|_| "too many layers".to_string())?;
+                let r = host_sim::print::print(stream, &f.slice, &cfg, layers, interrupted)
+                    .map_err(|e| e.to_string())?;
+                println!(
+                    "printed {} layers, plan {:016x}, {} frames retransmitted",
+                    r.layers.len(),
+                    r.digest,
+                    r.retransmitted
+                );
+                if let Some(path) = &report {
+                    let text = serde_json::to_string_pretty(&r.json(cfg.channels().len()))
+                        .map_err(|e| e.to_string())?;
+                    std::fs::write(path, text)
+                        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                }
+                Ok(())
             }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
