@@ -149,7 +149,7 @@ fn relay(listener: TcpListener, upstream: u16, per_mille: u64, seed: u64) {
                         if r < per_mille {
                             // dropped
                         } else if r < 2 * per_mille {
-                            out.push(b ^ (1 << (rng >> 40) % 8));
+                            out.push(b ^ (1 << ((rng >> 40) % 8)));
                         } else if r < 3 * per_mille {
                             out.extend([b, b]);
                         } else {
