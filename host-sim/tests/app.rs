@@ -2,8 +2,9 @@
 //! against the app over an in-memory byte pipe, on a board of counting pins and a clock whose
 //! idle time jumps (as QEMU's `-icount sleep=off`): a job's layer telemetry equals the host's
 //! `simulate` of the same job exactly; a bad slice comes back as the core's typed error and the
-//! next job prints; a host gone silent mid-job has the valves closed and the reason reported
-//! on reconnection.
+//! next job prints; pause, resume and abort act on the machine and a job after an abort
+//! prints; a host gone silent mid-job has the valves closed and the reason reported on
+//! reconnection.
 
 use std::collections::VecDeque;
 use std::convert::Infallible;
@@ -415,6 +416,65 @@ fn a_silent_host_has_the_valves_closed_and_hears_why_on_reconnection() {
         stop.store(true, Ordering::Relaxed);
         let out = app.join().unwrap();
         assert_eq!(out.state, Some(State::Stopped(Fault::HostSilent)));
+        assert_eq!(out.duties, [0; 4]);
+    })
+}
+
+#[test]
+fn pause_resume_and_abort_act_on_the_machine_and_the_next_job_prints() {
+    host_sim::run_on_large_stack(|| {
+        let (host, ctrl) = pipe();
+        let stop = Arc::new(AtomicBool::new(false));
+        let app = spawn_app(ctrl, stop.clone());
+        let mut client = LinkClient::new(host, HOST);
+        client.hello().unwrap();
+        client.send_printer(&ci_printer()).unwrap();
+        let f = slice_file::parse(host_sim::REFERENCE_SLICES[0].1).unwrap();
+        client.upload(&f.slice, 6).unwrap();
+        client.start().unwrap();
+        let wait_for = |client: &mut LinkClient<End>, phase: Phase| -> Vec<CtrlMsg> {
+            let t = Instant::now();
+            let mut seen = vec![];
+            loop {
+                assert!(t.elapsed() < Duration::from_secs(60), "no {phase:?}: {seen:?}");
+                if let Some(m) = client.next_message(Duration::from_millis(100)).unwrap() {
+                    let hit = matches!(&m, CtrlMsg::Status(s) if s.phase == phase);
+                    seen.push(m);
+                    if hit {
+                        return seen;
+                    }
+                }
+            }
+        };
+        wait_for(&mut client, Phase::Printing);
+        client.pause().unwrap();
+        wait_for(&mut client, Phase::Paused);
+        // Paused: nothing more is printed while the host waits.
+        let quiet = client.next_message(Duration::from_millis(300)).unwrap();
+        assert!(
+            !matches!(quiet, Some(CtrlMsg::Telemetry(_))),
+            "{quiet:?} while paused"
+        );
+        client.resume().unwrap();
+        wait_for(&mut client, Phase::Printing);
+        client.abort().unwrap();
+        let seen = wait_for(&mut client, Phase::Aborted);
+        assert!(
+            seen.iter()
+                .any(|m| *m == CtrlMsg::Error(RemoteError::Machine(Fault::Aborted))),
+            "{seen:?}"
+        );
+        // The next job on the same slice prints to its end.
+        client.start().unwrap();
+        let seen = wait_for(&mut client, Phase::Done);
+        let layers = seen
+            .iter()
+            .filter(|m| matches!(m, CtrlMsg::Telemetry(Telemetry::Layer(_))))
+            .count();
+        assert_eq!(layers, 6, "{seen:?}");
+        stop.store(true, Ordering::Relaxed);
+        let out = app.join().unwrap();
+        assert_eq!(out.state, Some(State::Ready));
         assert_eq!(out.duties, [0; 4]);
     })
 }
