@@ -436,7 +436,10 @@ fn pause_resume_and_abort_act_on_the_machine_and_the_next_job_prints() {
             let t = Instant::now();
             let mut seen = vec![];
             loop {
-                assert!(t.elapsed() < Duration::from_secs(60), "no {phase:?}: {seen:?}");
+                assert!(
+                    t.elapsed() < Duration::from_secs(60),
+                    "no {phase:?}: {seen:?}"
+                );
                 if let Some(m) = client.next_message(Duration::from_millis(100)).unwrap() {
                     let hit = matches!(&m, CtrlMsg::Status(s) if s.phase == phase);
                     seen.push(m);
