@@ -463,8 +463,7 @@ fn pause_resume_and_abort_act_on_the_machine_and_the_next_job_prints() {
         client.abort().unwrap();
         let seen = wait_for(&mut client, Phase::Aborted);
         assert!(
-            seen.iter()
-                .any(|m| *m == CtrlMsg::Error(RemoteError::Machine(Fault::Aborted))),
+            seen.contains(&CtrlMsg::Error(RemoteError::Machine(Fault::Aborted))),
             "{seen:?}"
         );
         // The next job on the same slice prints to its end.
