@@ -89,6 +89,7 @@ extern crate alloc;
 #[macro_use]
 mod fmt;
 
+pub mod app;
 pub mod cells;
 pub mod config;
 mod digest;

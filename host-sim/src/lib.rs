@@ -12,6 +12,7 @@ pub mod metrics;
 pub mod model;
 pub mod output;
 pub mod preview;
+pub mod print;
 pub mod printer_file;
 pub mod random_slice;
 pub mod raster;

@@ -339,3 +339,35 @@ impl<S: Read + Write> LinkClient<S> {
         self.flush()
     }
 }
+
+/// `slice` as the controller rebuilds it from the upload (whole micrometres, contours over
+/// [`SIMPLIFY_ABOVE_VERTICES`](hollowpath::config::SIMPLIFY_ABOVE_VERTICES) simplified):
+/// the slice the controller plans and prints, so the host's simulation of it is the
+/// controller's to the bit.
+pub fn as_uploaded(slice: &Slice, layers: u16) -> Result<Slice, ClientError> {
+    use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
+    use hollowpath::link::assemble::SliceAssembler;
+    let mut asm: Box<SliceAssembler<MAX_HOLES, { (MAX_HOLES + 1) * MAX_VERTICES }>> =
+        Box::default();
+    for m in upload(slice, layers) {
+        match m.map_err(ClientError::Slice)? {
+            HostMsg::Job { settings, layers } => asm.begin(settings, layers),
+            HostMsg::Feature {
+                feature,
+                material,
+                vertices,
+            } => asm
+                .feature(feature, material, vertices)
+                .map_err(ClientError::Link)?,
+            HostMsg::Contour(c) => asm.chunk(&c).map_err(ClientError::Link)?,
+            HostMsg::EndSlice { holes } => {
+                asm.end(holes).map_err(ClientError::Link)?;
+            }
+            _ => {}
+        }
+    }
+    match asm.build() {
+        Some(r) => r.map_err(ClientError::Slice),
+        None => Err(ClientError::Link(LinkError::UnexpectedMessage)),
+    }
+}

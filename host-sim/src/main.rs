@@ -118,6 +118,27 @@ enum Command {
         #[arg(long, default_value = "out/sim")]
         out: PathBuf,
     },
+    /// Print a slice on the controller over the link (a serial port, or TCP to QEMU's
+    /// `-serial tcp:...`): progress as it comes, the telemetry in --report.
+    Print {
+        /// The slice file (JSON, see SLICE_FORMAT.md).
+        slice: PathBuf,
+        /// The serial port (e.g. /dev/ttyUSB0, or the pty QEMU's `-serial pty` opened).
+        #[arg(long, conflicts_with = "tcp", required_unless_present = "tcp")]
+        port: Option<String>,
+        /// HOST:PORT of a TCP serial line (QEMU's `-serial tcp:HOST:PORT,server=on`).
+        #[arg(long)]
+        tcp: Option<String>,
+        /// The printer file (JSON; omitted keys take the default printer's values).
+        #[arg(long)]
+        printer: Option<PathBuf>,
+        /// Number of layers (zigzag, offset spiral, zigzag, ...).
+        #[arg(long, default_value_t = 2, value_parser = layer_count)]
+        layers: usize,
+        /// Write the telemetry here (JSON: digest, layers, retransmitted).
+        #[arg(long)]
+        report: Option<PathBuf>,
+    },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
     /// G-code, and a metrics table against the raster baseline; then slice the built-in
     /// scaffold model (a 6 x 6 x 3 mm block with three channels, one bending) into DIR/part
@@ -248,6 +269,51 @@ fn execute(cli: Cli) -> ExitCode {
             };
             run_simulation(&f, &cfg, &out, layers, source, Some(&slice))
         }),
+        Command::Print {
+            slice,
+            port,
+            tcp,
+            printer,
+            layers,
+            report,
+        } => slice_file::load(&slice)
+            .map_err(|e| format!("{}: {e}", slice.display()))
+            .and_then(|f| {
+                let cfg = match &printer {
+                    Some(p) => {
+                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
+                    }
+                    None => hollowpath::motion::PrinterConfig::default(),
+                };
+                cfg.check_slice(&f.slice)
+                    .map_err(|e| format!("printer and slice: {e}"))?;
+                let stream = match (&port, &tcp) {
+                    (_, Some(addr)) => host_sim::print::open_tcp(addr)?,
+                    (Some(p), None) => host_sim::print::open_serial(p)?,
+                    (None, None) => return Err("--port or --tcp is needed".into()),
+                };
+                let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+                let flag = interrupted.clone();
+                let _ = ctrlc::set_handler(move || {
+                    flag.store(true, std::sync::atomic::Ordering::Relaxed)
+                });
+                let layers = u16::try_from(layers).map_err(|_| "too many layers".to_string())?;
+                let r = host_sim::print::print(stream, &f.slice, &cfg, layers, interrupted)
+                    .map_err(|e| e.to_string())?;
+                println!(
+                    "printed {} layers, plan {:016x}, {} frames retransmitted",
+                    r.layers.len(),
+                    r.digest,
+                    r.retransmitted
+                );
+                if let Some(path) = &report {
+                    let text = serde_json::to_string_pretty(&r.json(cfg.channels().len()))
+                        .map_err(|e| e.to_string())?;
+                    std::fs::write(path, text)
+                        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                }
+                Ok(())
+            }),
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {
@@ -543,8 +609,11 @@ fn run_simulation(
     // Each layer to run: its index, pattern, the moves from home, and what they state.
     type Job = (usize, Pattern, Vec<Move>, Option<layers::Layer>);
     let mut jobs: Vec<Job> = Vec::new();
+    // The layers the controller would plan and print (none for a G-code file).
+    let mut job_layers = None;
     match source {
         Source::Plan => {
+            job_layers = Some(count.unwrap_or(2));
             let built = layers::layers(slice, plan, Fill::Offset, count.unwrap_or(2))
                 .map_err(|e| format!("layers failed: {e}"))?;
             for l in built {
@@ -627,7 +696,24 @@ fn run_simulation(
             s.simulated.spill,
         );
         docs.push(simulate::layer_json(&s, channels).map_err(|e| e.to_string())?);
-        telemetry.push(simulate::telemetry_json(&s, channels));
+    }
+    // The controller's telemetry: the slice as the controller receives it (whole
+    // micrometres), its whole job on one virtual printer through the core's job routine, as
+    // the controller prints it. A G-code file is not a job the controller plans: none.
+    let mut digest = None;
+    if let Some(count) = job_layers {
+        let layers16 = u16::try_from(count).map_err(|_| "too many layers".to_string())?;
+        let uploaded = host_sim::link_client::as_uploaded(slice, layers16)
+            .map_err(|e| format!("the slice as uploaded: {e}"))?;
+        let up_planner =
+            host_sim::plan(&uploaded).map_err(|e| format!("planning the uploaded slice: {e}"))?;
+        let up_plan = up_planner.last_plan();
+        let counted = host_sim::virtual_printer::run_job_counted(cfg, &uploaded, up_plan, count)
+            .map_err(|e| format!("job: {e}"))?;
+        for (k, c) in counted.iter().enumerate() {
+            telemetry.push(simulate::telemetry_json(k, c, channels));
+        }
+        digest = Some(format!("{:016x}", up_plan.digest()));
     }
     let name = if file.name.is_empty() {
         "slice"
@@ -637,7 +723,7 @@ fn run_simulation(
     let doc = serde_json::json!({
         "slice": name,
         "layers": docs,
-        "telemetry": {"digest": format!("{:016x}", plan.digest()), "layers": telemetry},
+        "telemetry": {"digest": digest, "layers": telemetry},
     });
     staged.write(
         &out.join("simulation.json"),

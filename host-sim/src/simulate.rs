@@ -139,12 +139,18 @@ pub fn layer_json(s: &SimulatedLayer, channels: usize) -> Result<Value, serde_js
     }))
 }
 
-/// The layer's telemetry as the controller reports it over the link (`hollowpath print
-/// --report`), computed by the same machine on the host: the two compare key by key.
-pub fn telemetry_json(s: &SimulatedLayer, channels: usize) -> Value {
-    let t = LayerTelemetry::from_counters(u16::try_from(s.index).unwrap_or(u16::MAX), &s.counters);
+/// Layer `index`'s telemetry as the controller reports it over the link (`hollowpath print
+/// --report`), from what the machine counted over the layer of the whole job
+/// ([`run_job_counted`](crate::virtual_printer::run_job_counted)): the two compare key by key.
+pub fn telemetry_json(index: usize, counters: &Counters, channels: usize) -> Value {
+    let t = LayerTelemetry::from_counters(u16::try_from(index).unwrap_or(u16::MAX), counters);
+    telemetry_value(&t, channels)
+}
+
+/// A layer telemetry as JSON (`simulation.json`'s `telemetry.layers`, `print --report`).
+pub fn telemetry_value(t: &LayerTelemetry, channels: usize) -> Value {
     json!({
-        "layer": s.index,
+        "layer": t.layer,
         "steps": {"x": t.steps[0], "y": t.steps[1], "z": t.steps[2]},
         "valve_openings": &t.valve_openings[..channels],
         "valve_open_ticks": &t.valve_open_ticks[..channels],

@@ -36,11 +36,14 @@ use std::rc::Rc;
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
+use hollowpath::app::job::{self, Drive, LayerError};
 use hollowpath::config::CHANNELS;
 use hollowpath::motion::config::AXES;
 use hollowpath::motion::machine::Counters;
 use hollowpath::motion::{Board, Machine, PrinterConfig, Refused, State};
 use hollowpath::toolpath::moves::Move;
+use hollowpath::toolpath::offset::OffsetSpiral;
+use hollowpath::{Plan, Slice};
 
 /// The valve outputs' full-scale duty (a 100 Hz PWM on a 1 MHz timer).
 pub const MAX_DUTY: u16 = 10_000;
@@ -305,6 +308,8 @@ pub enum SimError {
     Unfinished(State),
     /// An alarm asked for a deadline in the past or implausibly far ahead (ticks).
     Deadline(u32),
+    /// A layer's path could not be built.
+    Path(hollowpath::Error),
 }
 
 impl std::fmt::Display for SimError {
@@ -314,6 +319,7 @@ impl std::fmt::Display for SimError {
             SimError::Refused { index, why } => write!(f, "move {index} refused: {why:?}"),
             SimError::Unfinished(s) => write!(f, "the machine did not finish (state {s:?})"),
             SimError::Deadline(dt) => write!(f, "an alarm {dt} ticks ahead"),
+            SimError::Path(e) => write!(f, "layer path: {e}"),
         }
     }
 }
@@ -349,18 +355,11 @@ impl VirtualPrinter {
 
     /// One alarm now; the deadline it asks for is jumped to. Whether there was one.
     fn alarm(&mut self) -> Result<bool, SimError> {
-        match self.machine.on_alarm(self.ticks, &mut self.board) {
-            Some(at) => {
-                let dt = at.wrapping_sub(self.ticks);
-                if dt >= 1 << 30 {
-                    return Err(SimError::Deadline(dt));
-                }
-                self.ticks = at;
-                self.board.advance(dt as u64);
-                Ok(true)
-            }
-            None => Ok(false),
+        Clocked {
+            board: &mut self.board,
+            ticks: &mut self.ticks,
         }
+        .alarm(&mut self.machine)
     }
 
     /// Runs `moves` at height `z` to the end, pushing them whenever the look-ahead has room.
@@ -420,6 +419,61 @@ pub fn run_layer_counted(
     }
     t.now -= t0;
     Ok((t, counted))
+}
+
+/// The virtual clock as the core's job routine drives it: each alarm jumps to the deadline
+/// the machine asked for.
+struct Clocked<'a> {
+    board: &'a mut VirtualBoard,
+    ticks: &'a mut u32,
+}
+
+impl Drive<LOOK_AHEAD> for Clocked<'_> {
+    type Stop = SimError;
+    fn alarm(&mut self, machine: &mut Machine<LOOK_AHEAD>) -> Result<bool, SimError> {
+        match machine.on_alarm(*self.ticks, self.board) {
+            Some(at) => {
+                let dt = at.wrapping_sub(*self.ticks);
+                if dt >= 1 << 30 {
+                    return Err(SimError::Deadline(dt));
+                }
+                *self.ticks = at;
+                self.board.advance(dt as u64);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+}
+
+/// Prints `layers` layers of the job on one virtual printer, homed once, layer after layer
+/// with z rising, through the core's own job routine ([`hollowpath::app::job`], the one the
+/// controller prints with): what the machine counted over each layer, the controller's
+/// telemetry exactly.
+pub fn run_job_counted(
+    cfg: &PrinterConfig,
+    slice: &Slice,
+    plan: &Plan,
+    layers: usize,
+) -> Result<Vec<Counters>, SimError> {
+    let mut p = VirtualPrinter::new(cfg)?;
+    let mut offset = Box::new(OffsetSpiral::new());
+    let mut drive = Clocked {
+        board: &mut p.board,
+        ticks: &mut p.ticks,
+    };
+    (0..layers)
+        .map(|k| {
+            job::print_layer(slice, plan, &mut offset, k, &mut p.machine, &mut drive).map_err(|e| {
+                match e {
+                    LayerError::Path(e) => SimError::Path(e),
+                    LayerError::Refused(why) => SimError::Refused { index: k, why },
+                    LayerError::Stopped(e) => e,
+                    LayerError::Unfinished(s) => SimError::Unfinished(s),
+                }
+            })
+        })
+        .collect()
 }
 
 pub use crate::virtual_rebuild::{rebuild, Rebuild, Rebuilt, TraceFigures};

@@ -45,6 +45,9 @@ pub enum Fault {
     },
     /// The timer kept refusing deadlines as already past.
     Late,
+    /// The host went silent for longer than the link's watchdog allows during a job (the
+    /// application's call: the machine itself knows no link).
+    HostSilent,
 }
 
 /// Where the machine is.

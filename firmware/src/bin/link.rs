@@ -1,0 +1,206 @@
+//! hollowpath's link firmware on QEMU's mps2-an386: the controller application
+//! (`hollowpath::app`) on UART0, the host's `hollowpath print` at the other end.
+//!
+//! ```sh
+//! cargo build -p hollowpath-qemu --target thumbv7em-none-eabihf --release --bin link
+//! qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+//!     -semihosting-config enable=on,target=native -icount shift=0,sleep=off \
+//!     -serial pty -kernel target/thumbv7em-none-eabihf/release/link
+//! ```
+//!
+//! The clock is the SysTick (25 MHz, its wraps counted); a step deadline arms timer 0 and
+//! the core sleeps (`wfi`) until it or a received byte, so QEMU's `-icount sleep=off` jumps
+//! the idle time. Waiting for the host it sleeps until a byte arrives and arms no timer: the
+//! link's own timers run when the host's next byte (its keep-alive) wakes it, so an idle
+//! firmware does not race through emulated time sending retransmissions. The printer's pins
+//! are counted in memory (`link_board`). Semihosting prints one line at start and one per
+//! job; the UART carries nothing but the link.
+#![no_std]
+#![no_main]
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use cortex_m_semihosting::{debug, hprintln};
+use hollowpath::app::{App, Io};
+use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
+use hollowpath::link::controller::Controller;
+use hollowpath::link::endpoint::LinkConfig;
+use hollowpath::link::message::Version;
+use static_cell::ConstStaticCell;
+
+#[path = "../link_board.rs"]
+mod link_board;
+#[path = "../mps2.rs"]
+mod mps2;
+
+/// The UART's baud rate (QEMU moves bytes as fast as the host takes them; the divider only
+/// has to be valid).
+const BAUD: u32 = 115_200;
+
+/// The link's timers in emulated microseconds. Under `-icount shift=0,sleep=off` a print
+/// runs some hundred times faster than the wall clock (the step deadlines are jumped), so
+/// the host's keep-alives, a few wall milliseconds apart, are emulated seconds apart: the
+/// watchdog allows 30 s. No keep-alive of our own (acks answer every frame; the host keeps
+/// no watchdog).
+const LINK: LinkConfig = LinkConfig {
+    retransmit_us: 2_000_000,
+    keepalive_us: 0,
+    watchdog_us: 30_000_000,
+};
+
+const FIRMWARE: Version = Version {
+    major: 0,
+    minor: 1,
+    patch: 0,
+};
+
+type FwApp = App<MAX_HOLES, { (MAX_HOLES + 1) * MAX_VERTICES }, 4>;
+
+/// The application (planner, offset spiral, slice assembler, machine), in a static.
+static APP: ConstStaticCell<FwApp> =
+    ConstStaticCell::new(App::new(Controller::new(LINK, FIRMWARE)));
+
+/// SysTick wraps (each 2^24 ticks).
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+const RELOAD: u32 = 0x00FF_FFFF;
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// The device interrupts (no PAC: cortex-m-rt routes them all here).
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    match irqn {
+        0 => mps2::on_rx(),
+        8 => mps2::on_timer(),
+        _ => {}
+    }
+}
+
+/// SysTick ticks since start.
+fn ticks() -> u64 {
+    loop {
+        let w1 = WRAPS.load(Ordering::Relaxed);
+        let v = cortex_m::peripheral::SYST::get_current();
+        let pending = cortex_m::peripheral::SCB::is_pendst_pending();
+        let w2 = WRAPS.load(Ordering::Relaxed);
+        if w1 == w2 {
+            let w = if pending && v > RELOAD / 2 {
+                w1 + 1
+            } else {
+                w1
+            };
+            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - v) as u64;
+        }
+    }
+}
+
+/// The platform of the application: UART0, the SysTick clock, `wfi`.
+struct Mps2;
+
+impl Io for Mps2 {
+    fn now_us(&mut self) -> u64 {
+        ticks() / (mps2::CLOCK_HZ as u64 / 1_000_000)
+    }
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        mps2::read(buf)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        mps2::write(bytes)
+    }
+    fn sleep(&mut self, until: Option<u64>) {
+        match until {
+            None => {
+                // Until the host's next byte (SysTick wraps wake us on the way).
+                while !mps2::rx_pending() {
+                    cortex_m::asm::wfi();
+                }
+            }
+            Some(t) => {
+                let now = self.now_us();
+                if t <= now || mps2::rx_pending() {
+                    return;
+                }
+                let ticks = (t - now).min(1_000_000) as u32 * (mps2::CLOCK_HZ / 1_000_000);
+                mps2::wake_in(ticks);
+                while self.now_us() < t && !mps2::rx_pending() {
+                    cortex_m::asm::wfi();
+                }
+                mps2::cancel_wake();
+            }
+        }
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(mut cp) = cortex_m::Peripherals::take() else {
+        fail("peripherals");
+    };
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    mps2::init(BAUD);
+    let app = APP.take();
+    let mut board = link_board::LinkBoard::new();
+    let mut io = Mps2;
+    hprintln!(
+        "link firmware ready: app {} bytes, uart0 {} baud",
+        core::mem::size_of::<FwApp>(),
+        BAUD
+    );
+    let mut jobs = 0u32;
+    loop {
+        app.poll(&mut io, &mut board);
+        if let Some(m) = app.machine() {
+            let c = m.counters();
+            let n = c.steps.iter().sum::<u64>() as u32;
+            if n != jobs {
+                jobs = n;
+                hprintln!(
+                    "job: steps {} {} {} valves shut {} at {} us",
+                    c.steps[0],
+                    c.steps[1],
+                    c.steps[2],
+                    link_board::valves_shut(),
+                    io.now_us()
+                );
+            }
+        }
+        io.sleep(None);
+    }
+}
+
+fn fail(what: &str) -> ! {
+    link_board::shut_valves();
+    hprintln!("error {}", what);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    // Valves first.
+    link_board::shut_valves();
+    hprintln!("hard fault at {:#x}", frame.pc());
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    // Valves first.
+    link_board::shut_valves();
+    hprintln!("panic: {}", info);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}

@@ -1,0 +1,132 @@
+//! The few mps2-an386 peripherals the link firmware uses, as QEMU models them: the CMSDK APB
+//! UART0 (the link's byte stream), CMSDK timer 0 (the wake-up at a step deadline) and the
+//! SysTick (the clock). Every register access is one `read_volatile` / `write_volatile` in
+//! [`Reg`]; nothing else here is `unsafe`.
+//!
+//! Addresses and interrupt numbers (QEMU `hw/arm/mps2.c`, ARM AN386): UART0 at 0x4000_4000,
+//! its RX interrupt IRQ 0; TIMER0 at 0x4000_0000, IRQ 8. The UART (QEMU
+//! `hw/char/cmsdk-apb-uart.c`): DATA 0x00, STATE 0x04 (bit 0 TX full, bit 1 RX full), CTRL
+//! 0x08 (bit 0 TX enable, bit 1 RX enable, bit 3 RX interrupt enable), INTSTATUS/INTCLEAR
+//! 0x0C (write 1 to clear; bit 1 RX), BAUDDIV 0x10 (at least 16, or QEMU ignores it). The
+//! timer: CTRL 0x00 (bit 0 enable, bit 3 interrupt enable), VALUE 0x04 (counts down at the
+//! 25 MHz APB clock), RELOAD 0x08, INTSTATUS/INTCLEAR 0x0C.
+
+use core::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+
+/// The core and APB clock (Hz).
+pub const CLOCK_HZ: u32 = 25_000_000;
+
+/// A memory-mapped 32-bit register.
+#[derive(Clone, Copy)]
+pub struct Reg(usize);
+
+impl Reg {
+    pub fn read(self) -> u32 {
+        // SAFETY: `self.0` is one of the peripheral register addresses below (aligned,
+        // mapped on mps2-an386); a volatile read has no other effect than the device's.
+        unsafe { core::ptr::read_volatile(self.0 as *const u32) }
+    }
+    pub fn write(self, v: u32) {
+        // SAFETY: as `read`; the register is writable and the value is what the device's
+        // documentation allows.
+        unsafe { core::ptr::write_volatile(self.0 as *mut u32, v) }
+    }
+}
+
+const UART0: usize = 0x4000_4000;
+const UART_DATA: Reg = Reg(UART0);
+const UART_STATE: Reg = Reg(UART0 + 0x04);
+const UART_CTRL: Reg = Reg(UART0 + 0x08);
+const UART_INT: Reg = Reg(UART0 + 0x0C);
+const UART_BAUDDIV: Reg = Reg(UART0 + 0x10);
+/// UART0's RX interrupt.
+pub const UART0_RX_IRQ: u16 = 0;
+
+const TIMER0: usize = 0x4000_0000;
+const TIMER_CTRL: Reg = Reg(TIMER0);
+const TIMER_VALUE: Reg = Reg(TIMER0 + 0x04);
+const TIMER_RELOAD: Reg = Reg(TIMER0 + 0x08);
+const TIMER_INT: Reg = Reg(TIMER0 + 0x0C);
+/// Timer 0's interrupt.
+pub const TIMER0_IRQ: u16 = 8;
+
+const NVIC_ISER0: Reg = Reg(0xE000_E100);
+
+/// Bytes received and not read yet (the RX interrupt fills it; QEMU's UART holds one byte
+/// and takes the next from the line only once it was read, so nothing is lost).
+const RING: usize = 512;
+static RX: [AtomicU32; RING] = [const { AtomicU32::new(0) }; RING];
+static RX_HEAD: AtomicUsize = AtomicUsize::new(0);
+static RX_TAIL: AtomicUsize = AtomicUsize::new(0);
+
+/// Enables UART0 at `baud` (TX and RX, the RX interrupt) and the two interrupts.
+pub fn init(baud: u32) {
+    UART_BAUDDIV.write((CLOCK_HZ / baud).max(16));
+    UART_CTRL.write(0b1011);
+    TIMER_CTRL.write(0);
+    TIMER_INT.write(1);
+    NVIC_ISER0.write((1 << UART0_RX_IRQ) | (1 << TIMER0_IRQ));
+}
+
+/// The RX interrupt: cleared first (a byte arriving after the loop raises it again), then
+/// the byte into the ring (dropped if the ring is full: the link retransmits).
+pub fn on_rx() {
+    UART_INT.write(0b10);
+    while UART_STATE.read() & 0b10 != 0 {
+        let b = UART_DATA.read() & 0xFF;
+        let head = RX_HEAD.load(Ordering::Relaxed);
+        let next = (head + 1) % RING;
+        if next != RX_TAIL.load(Ordering::Acquire) {
+            RX[head].store(b, Ordering::Relaxed);
+            RX_HEAD.store(next, Ordering::Release);
+        }
+    }
+}
+
+/// The timer interrupt: one-shot, so stop it.
+pub fn on_timer() {
+    TIMER_CTRL.write(0);
+    TIMER_INT.write(1);
+}
+
+/// Whether received bytes wait.
+pub fn rx_pending() -> bool {
+    RX_HEAD.load(Ordering::Acquire) != RX_TAIL.load(Ordering::Relaxed)
+}
+
+/// Reads received bytes into `buf`.
+pub fn read(buf: &mut [u8]) -> usize {
+    let mut n = 0;
+    while n < buf.len() {
+        let tail = RX_TAIL.load(Ordering::Relaxed);
+        if tail == RX_HEAD.load(Ordering::Acquire) {
+            break;
+        }
+        buf[n] = RX[tail].load(Ordering::Relaxed) as u8;
+        RX_TAIL.store((tail + 1) % RING, Ordering::Release);
+        n += 1;
+    }
+    n
+}
+
+/// Writes `bytes`, waiting while the transmitter is full.
+pub fn write(bytes: &[u8]) {
+    for &b in bytes {
+        while UART_STATE.read() & 1 != 0 {}
+        UART_DATA.write(b as u32);
+    }
+}
+
+/// Arms timer 0 to interrupt in `ticks` APB ticks (one-shot).
+pub fn wake_in(ticks: u32) {
+    TIMER_CTRL.write(0);
+    TIMER_RELOAD.write(ticks);
+    TIMER_VALUE.write(ticks);
+    TIMER_INT.write(1);
+    TIMER_CTRL.write(0b1001);
+}
+
+/// Stops timer 0.
+pub fn cancel_wake() {
+    TIMER_CTRL.write(0);
+}

@@ -1,0 +1,320 @@
+//! The controller application: the link's [`Controller`] and the [`Machine`] in one state
+//! machine, generic over the printer's [`Board`] and the platform's [`Io`] (byte stream and
+//! clock, both injected).
+//!
+//! ```text
+//!  idle ──slice──► receiving ──EndSlice──► planning ──plan──► idle (planned) ──Start──►
+//!  homing ──► printing layer 0, 1, ... ◄──► paused ──► done | aborted | failed ──► idle
+//! ```
+//!
+//! * A slice arrives through the controller's assembler and is built and validated there;
+//!   a bad slice comes back to the host as the core's typed error and the application stays
+//!   idle. A good one is planned once ([`Planner`]) and its digest reported
+//!   ([`Telemetry::Plan`]).
+//! * `Start` prints the job on a fresh [`Machine`] for the accepted printer: homing, then
+//!   layer after layer on the same machine, z rising, each layer's path streamed straight
+//!   into the machine ([`job::print_layer`], the routine the host's `simulate` counts its
+//!   telemetry with), the step interrupt run at the deadlines the machine asks for. After
+//!   each layer its [`LayerTelemetry`] goes up, with a [`Status`] (phase, layer, percent)
+//!   at each layer's start.
+//! * While printing, the link is served between step deadlines: `Pause` stops at the next
+//!   block boundary (valves shut), `Resume` continues, `Abort` shuts down. Host silence
+//!   past the link's watchdog shuts the machine down at once ([`Fault::HostSilent`]: valves
+//!   first, then motion) and the reason is reported when a host greets the controller again.
+//!   Every fault goes through [`Machine::shutdown`], valves first.
+//!
+//! [`App::poll`] serves the link and returns the link's next deadline (smoltcp style); a job
+//! runs inside the `poll` that received its `Start`, serving the link itself while it
+//! prints. The step interrupt runs in lockstep with the layer's generator: the generator
+//! fills the look-ahead, and the alarm due next runs (at its own deadline, however late the
+//! platform woke) whenever the look-ahead is full or the layer ended, so the machine sees
+//! the same pushes and alarms as on the host, and counts the same figures. A late wake-up
+//! delays steps but never reorders or changes them.
+
+pub mod io;
+pub mod job;
+pub mod session;
+
+use crate::link::controller::{Controller, Event};
+use crate::link::error::LinkError;
+use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, Telemetry};
+use crate::motion::machine::Fault;
+use crate::motion::{Board, Machine, State};
+use crate::toolpath::offset::OffsetSpiral;
+use crate::{Planner, Slice};
+
+pub use io::Io;
+use job::{Drive, LayerError};
+pub use session::Session;
+
+/// Blocks of look-ahead of the application's machine (the host's virtual printer's too).
+pub const LOOK_AHEAD: usize = 32;
+
+/// How often the link is served while the machine steps (microseconds).
+const SERVE_US: u64 = 500;
+
+/// The controller application (the module's essay). Large (planner, offset spiral,
+/// assembler, machine): keep it in a `static` (`const fn new`).
+pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
+    session: Session<HOLES, POINTS, W>,
+    planner: Planner,
+    offset: OffsetSpiral,
+    slice: Option<Slice>,
+    planned: bool,
+    machine: Option<Machine<LOOK_AHEAD>>,
+}
+
+impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS, W> {
+    /// An idle application around the link's controller.
+    pub const fn new(ctrl: Controller<HOLES, POINTS, W>) -> Self {
+        App {
+            session: Session::new(ctrl),
+            planner: Planner::new(),
+            offset: OffsetSpiral::new(),
+            slice: None,
+            planned: false,
+            machine: None,
+        }
+    }
+
+    /// The link side (controller, status).
+    pub fn session(&self) -> &Session<HOLES, POINTS, W> {
+        &self.session
+    }
+
+    /// The machine of the last job, if any.
+    pub fn machine(&self) -> Option<&Machine<LOOK_AHEAD>> {
+        self.machine.as_ref()
+    }
+
+    /// Serves the link: handles what arrived (planning a slice, running a job to its end),
+    /// writes what is due; returns the link's next deadline (microseconds).
+    pub fn poll<I: Io, B: Board>(&mut self, io: &mut I, board: &mut B) -> Option<u64> {
+        while let Some(event) = self.session.next_event(io) {
+            self.on_event(event, io, board);
+            self.session.flush(io);
+        }
+        self.session.flush(io)
+    }
+
+    fn on_event<I: Io, B: Board>(&mut self, event: Event, io: &mut I, board: &mut B) {
+        match event {
+            Event::SliceReady => {
+                self.planned = false;
+                self.slice = None;
+                self.session.report(Phase::Receiving, 0, 0, 0);
+                // A refusal was already reported to the host by the controller.
+                if let Ok(slice) = self.session.ctrl.finish_slice() {
+                    {
+                        self.session.report(Phase::Planning, 0, 0, 0);
+                        self.session.flush(io);
+                        match self.planner.plan(&slice) {
+                            Ok(plan) => {
+                                let digest = plan.digest();
+                                self.planned = true;
+                                self.session
+                                    .send(CtrlMsg::Telemetry(Telemetry::Plan { digest }));
+                            }
+                            Err(e) => self.session.send(CtrlMsg::Error(RemoteError::Slice(e))),
+                        }
+                        self.slice = Some(slice);
+                    }
+                }
+                self.session.report(Phase::Idle, 0, 0, 0);
+            }
+            Event::Start => self.run_job(io, board),
+            // Outside a job there is nothing to pause, resume or abort; a stopped machine
+            // stays stopped (a new job builds a new one).
+            Event::Pause | Event::Resume | Event::Abort => {
+                let phase = self.session.status.phase;
+                let s = self.session.status;
+                self.session.report(phase, s.layer, s.layers, s.percent);
+            }
+            Event::Hello | Event::Printer | Event::Refused(_) => {}
+        }
+    }
+
+    /// Prints the accepted slice on a fresh machine; ends idle, with the outcome reported.
+    fn run_job<I: Io, B: Board>(&mut self, io: &mut I, board: &mut B) {
+        let (Some(slice), true, Some(cfg)) =
+            (&self.slice, self.planned, self.session.ctrl.printer())
+        else {
+            self.session.send(CtrlMsg::Error(RemoteError::Link(
+                LinkError::UnexpectedMessage,
+            )));
+            return;
+        };
+        let layers = self.session.ctrl.layers();
+        let machine = match Machine::new(cfg.clone()) {
+            Ok(m) => self.machine.insert(m),
+            Err(e) => {
+                self.session
+                    .send(CtrlMsg::Error(RemoteError::Printer(e.into())));
+                return;
+            }
+        };
+        let tick_hz = machine.config().tick_hz;
+        let mut run = Run {
+            session: &mut self.session,
+            io,
+            board,
+            tick_hz,
+            deadline: None,
+            served: 0,
+            pause_reported: false,
+        };
+        run.session.report(Phase::Homing, 0, layers, 0);
+        let mut result = job::home(machine, &mut run);
+        let plan = self.planner.last_plan();
+        let mut layer = 0u16;
+        while result.is_ok() && layer < layers {
+            let percent = (layer as u32 * 100 / layers.max(1) as u32) as u8;
+            run.session.report(Phase::Printing, layer, layers, percent);
+            run.session.flush(run.io);
+            match job::print_layer(
+                slice,
+                plan,
+                &mut self.offset,
+                layer as usize,
+                machine,
+                &mut run,
+            ) {
+                Ok(c) => {
+                    let t = LayerTelemetry::from_counters(layer, &c);
+                    run.session.send(CtrlMsg::Telemetry(Telemetry::Layer(t)));
+                    layer += 1;
+                }
+                Err(e) => result = Err(e),
+            }
+        }
+        let session = run.session;
+        match result {
+            Ok(()) => session.report(Phase::Done, layers, layers, 100),
+            Err(e) => {
+                // Valves first: a stopped machine already closed them; anything else
+                // (a path the core could not build, a refused move) stops it here.
+                let fault = e.fault().unwrap_or(match e {
+                    LayerError::Stopped(f) => f,
+                    _ => Fault::Aborted,
+                });
+                machine.shutdown(run.board, fault);
+                let percent = (layer as u32 * 100 / layers.max(1) as u32) as u8;
+                let phase = if fault == Fault::Aborted {
+                    Phase::Aborted
+                } else {
+                    Phase::Failed
+                };
+                let why = match e {
+                    LayerError::Path(err) => RemoteError::Slice(err),
+                    _ => RemoteError::Machine(fault),
+                };
+                if fault == Fault::HostSilent {
+                    session.report_on_hello = Some(why);
+                }
+                session.send(CtrlMsg::Error(why));
+                session.report(phase, layer, layers, percent);
+            }
+        }
+        session.flush(run.io);
+    }
+}
+
+/// The step interrupt of a job, with the link served between deadlines.
+struct Run<'a, I, B, const HOLES: usize, const POINTS: usize, const W: usize> {
+    session: &'a mut Session<HOLES, POINTS, W>,
+    io: &'a mut I,
+    board: &'a mut B,
+    tick_hz: u32,
+    /// The deadline the machine asked for last (`None`: at rest, run at once).
+    deadline: Option<u32>,
+    /// When the link was served last (microseconds).
+    served: u64,
+    pause_reported: bool,
+}
+
+impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
+    Run<'_, I, B, HOLES, POINTS, W>
+{
+    /// Serves the link: pause, resume and abort act on the machine; silence past the
+    /// watchdog stops it.
+    fn serve(&mut self, machine: &mut Machine<LOOK_AHEAD>, now: u64) -> Option<u64> {
+        self.served = now;
+        while let Some(event) = self.session.next_event(self.io) {
+            match event {
+                Event::Pause => machine.pause(),
+                Event::Resume => {
+                    if machine.state() == State::Paused {
+                        machine.resume();
+                        self.deadline = None;
+                        self.pause_reported = false;
+                        let s = self.session.status;
+                        self.session
+                            .report(Phase::Printing, s.layer, s.layers, s.percent);
+                    }
+                }
+                Event::Abort => machine.abort(self.board),
+                Event::Start => self.session.send(CtrlMsg::Error(RemoteError::Link(
+                    LinkError::UnexpectedMessage,
+                ))),
+                // A slice uploaded mid-job waits for the job's end (the controller takes
+                // nothing more until then).
+                Event::SliceReady | Event::Hello | Event::Printer | Event::Refused(_) => {}
+            }
+        }
+        if self.session.ctrl.is_lost(self.io.now_us()) {
+            machine.shutdown(self.board, Fault::HostSilent);
+        }
+        self.session.flush(self.io)
+    }
+}
+
+impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize> Drive<LOOK_AHEAD>
+    for Run<'_, I, B, HOLES, POINTS, W>
+{
+    type Stop = Fault;
+
+    fn alarm(&mut self, machine: &mut Machine<LOOK_AHEAD>) -> Result<bool, Fault> {
+        loop {
+            let now = self.io.now_us();
+            if now.wrapping_sub(self.served) >= SERVE_US || self.deadline.is_none() {
+                self.serve(machine, now);
+            }
+            match machine.state() {
+                State::Stopped(f) => return Err(f),
+                State::Paused => {
+                    if !self.pause_reported {
+                        self.pause_reported = true;
+                        let s = self.session.status;
+                        self.session
+                            .report(Phase::Paused, s.layer, s.layers, s.percent);
+                        self.session.flush(self.io);
+                    }
+                    self.serve(machine, now);
+                    if machine.state() == State::Paused {
+                        // Nothing to step: wait for the host (its keep-alives wake us).
+                        self.io.sleep(None);
+                    }
+                    continue;
+                }
+                _ => {}
+            }
+            let at = match self.deadline {
+                None => io::ticks_at(now, self.tick_hz),
+                Some(d) => {
+                    let wait = io::us_until(io::ticks_at(now, self.tick_hz), d, self.tick_hz);
+                    if wait > 0 {
+                        // Only the step deadline wakes us (and bytes): the link is served
+                        // every `SERVE_US` of stepping, and a platform whose idle time
+                        // jumps (QEMU's `-icount sleep=off`) must not race through the
+                        // link's timers.
+                        self.io.sleep(Some(now + wait));
+                        continue;
+                    }
+                    d
+                }
+            };
+            self.deadline = machine.on_alarm(at, self.board);
+            return Ok(self.deadline.is_some() || machine.state() == State::Paused);
+        }
+    }
+}
