@@ -18,6 +18,7 @@ use hollowpath::toolpath::DigestSink;
 use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
 use static_cell::{ConstStaticCell, StaticCell};
 
+mod link_board;
 mod motion_bench;
 
 mod slice_data {
@@ -164,7 +165,7 @@ fn main() -> ! {
     let z = cfg.layer_height;
     let machine =
         MACHINE.init(hollowpath::motion::Machine::new(cfg).unwrap_or_else(|e| fail("printer", e)));
-    let mut board = motion_bench::CountingBoard::default();
+    let mut board = link_board::LinkBoard::new();
     let mut feed = motion_bench::Feed::new(machine, &mut board, z, ticks);
     feed.home();
     let homed = feed.figures;
@@ -174,9 +175,12 @@ fn main() -> ! {
         fail("motion", why);
     }
     result.unwrap_or_else(|e| fail("zigzag (motion)", e));
+    if !link_board::valves_shut() {
+        fail("motion", "a valve is open after the layer");
+    }
     let f = feed.figures;
     let segments = feed.machine.stepper().stats.segments;
-    let (pulses, openings) = (board.pulses(), board.openings());
+    let (pulses, openings) = (motion_bench::pulses(&board), motion_bench::openings());
     hprintln!(
         "motion moves {} pulses {} {} {} openings {} {} {} {} segments {} alarms {}",
         f.moves,
@@ -206,6 +210,8 @@ fn main() -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    // The valves first (semihosting may hang without a debugger).
+    link_board::shut_valves();
     hprintln!("panic: {}", info);
     debug::exit(debug::EXIT_FAILURE);
     #[allow(clippy::empty_loop)]

@@ -6,16 +6,17 @@
 //! into constant-width moves and pushes them; whenever the look-ahead is full it runs the
 //! step interrupt ([`Machine::on_alarm`]) at each deadline until there is room, as the
 //! board's timer interrupt would. The clock is virtual (the deadline the machine asks for is
-//! the next `now`), so the figures are the motion code's own work, not time waited.
+//! the next `now`), so the figures are the motion code's own work, not time waited. The pins
+//! are the link firmware's counting pins ([`LinkBoard`]).
 
-use core::convert::Infallible;
+use core::sync::atomic::Ordering;
 
-use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
-use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::geometry::Point;
-use hollowpath::motion::{Board, Machine, PrinterConfig, Refused, State};
+use hollowpath::motion::{Machine, PrinterConfig, Refused, State};
 use hollowpath::toolpath::moves::{split, Move};
 use hollowpath::toolpath::{PathSink, Vertex};
+
+use crate::link_board::{LinkBoard, OPENINGS};
 
 /// Blocks of look-ahead (the host's virtual printer uses the same).
 pub const LOOK_AHEAD: usize = 32;
@@ -23,110 +24,14 @@ pub const LOOK_AHEAD: usize = 32;
 /// Moves of the layer that are stepped (bounds the emulated time of the test).
 pub const MOVES: u32 = 400;
 
-/// A pin that counts its rising edges.
-#[derive(Default)]
-pub struct Pin {
-    high: bool,
-    rises: u32,
+/// Rising step edges per axis on `board` (the link firmware's counting pins).
+pub fn pulses(board: &LinkBoard) -> [u32; 3] {
+    [0, 1, 2].map(|a| board.step[a].rises)
 }
 
-impl ErrorType for Pin {
-    type Error = Infallible;
-}
-
-impl OutputPin for Pin {
-    fn set_low(&mut self) -> Result<(), Infallible> {
-        self.high = false;
-        Ok(())
-    }
-    fn set_high(&mut self) -> Result<(), Infallible> {
-        if !self.high {
-            self.rises += 1;
-        }
-        self.high = true;
-        Ok(())
-    }
-}
-
-impl InputPin for Pin {
-    fn is_high(&mut self) -> Result<bool, Infallible> {
-        Ok(self.high)
-    }
-    fn is_low(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.high)
-    }
-}
-
-/// A valve output that counts its openings (duty from 0 to more).
-#[derive(Default)]
-pub struct Valve {
-    duty: u16,
-    openings: u32,
-}
-
-impl pwm::ErrorType for Valve {
-    type Error = Infallible;
-}
-
-impl SetDutyCycle for Valve {
-    fn max_duty_cycle(&self) -> u16 {
-        10_000
-    }
-    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
-        if self.duty == 0 && duty > 0 {
-            self.openings += 1;
-        }
-        self.duty = duty;
-        Ok(())
-    }
-}
-
-/// The counting board (QEMU has no printer pins). The inputs read low: no endstop is
-/// configured and the emergency stop is active high.
-#[derive(Default)]
-pub struct CountingBoard {
-    step: [Pin; 3],
-    dir: [Pin; 3],
-    input: Pin,
-    valve: [Valve; 4],
-}
-
-impl Board for CountingBoard {
-    type Out = Pin;
-    type In = Pin;
-    type Pwm = Valve;
-    fn step(&mut self, axis: usize) -> &mut Pin {
-        &mut self.step[axis]
-    }
-    fn dir(&mut self, axis: usize) -> &mut Pin {
-        &mut self.dir[axis]
-    }
-    fn endstop(&mut self, _: usize) -> &mut Pin {
-        &mut self.input
-    }
-    fn estop(&mut self) -> &mut Pin {
-        &mut self.input
-    }
-    fn valve(&mut self, c: usize) -> &mut Valve {
-        &mut self.valve[c]
-    }
-}
-
-impl CountingBoard {
-    /// Rising step edges per axis.
-    pub fn pulses(&self) -> [u32; 3] {
-        [self.step[0].rises, self.step[1].rises, self.step[2].rises]
-    }
-
-    /// Openings per valve channel.
-    pub fn openings(&self) -> [u32; 4] {
-        [
-            self.valve[0].openings,
-            self.valve[1].openings,
-            self.valve[2].openings,
-            self.valve[3].openings,
-        ]
-    }
+/// Openings per valve channel so far.
+pub fn openings() -> [u32; 4] {
+    [0, 1, 2, 3].map(|c| OPENINGS[c].load(Ordering::Relaxed))
 }
 
 /// The printer of the bench: the default one, no endstops (homing takes the start).
@@ -153,7 +58,7 @@ pub struct Figures {
 /// The layer's sink that drives the machine (the module's essay).
 pub struct Feed<'a, F: Fn() -> u64> {
     pub machine: &'a mut Machine<LOOK_AHEAD>,
-    pub board: &'a mut CountingBoard,
+    pub board: &'a mut LinkBoard,
     /// The virtual clock, timer ticks.
     pub now: u32,
     pub z: f32,
@@ -168,7 +73,7 @@ pub struct Feed<'a, F: Fn() -> u64> {
 impl<'a, F: Fn() -> u64> Feed<'a, F> {
     pub fn new(
         machine: &'a mut Machine<LOOK_AHEAD>,
-        board: &'a mut CountingBoard,
+        board: &'a mut LinkBoard,
         z: f32,
         ticks: F,
     ) -> Self {
