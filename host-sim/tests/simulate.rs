@@ -138,7 +138,7 @@ fn without_a_lag_each_road_opens_the_valves_once() {
 /// An ideal valve: the flow is the commanded one, so what the trace rebuilds is the motion
 /// code's own deposition, and it should be the planned layer's.
 #[test]
-#[ignore = "fails (measured): all within bounds but vessel_ring zigzag spill 0.0005+ (bound 0.0005); coverage within 0.0017, overfill within 0.0022"]
+#[ignore = "fails (measured): vessel_ring's zigzag spills 0.0005 (bound: under 0.0005); coverage within 0.0017, overfill within 0.0022 (the default printer, with its lag, meets the bar)"]
 fn with_ideal_valves_the_trace_rebuilds_the_planned_layer() {
     let cfg = ideal_valves();
     let mut bad = Vec::new();
@@ -148,9 +148,14 @@ fn with_ideal_valves_the_trace_rebuilds_the_planned_layer() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-/// The default pneumatic printer (20 ms dead time, 30 ms lag, compensated by the core).
+/// The default pneumatic printer (20 ms dead time, 30 ms lag, compensated by the core): on
+/// every reference layer the print rebuilt from the pin trace agrees with the planned layer
+/// (coverage and overfill within 0.005, spill within 0.0005) and the valves open once per
+/// start. Before the look-ahead's braking was made monotone (`planner`'s essay), profiles
+/// taken by the step generator stood still mid-road and the valves shut and reopened there;
+/// before the valves followed the flow's envelope (`valve`'s essay), the zigzags' roads ran
+/// wide past every narrowing into a keep-out curve (spill up to 0.0017).
 #[test]
-#[ignore = "fails (measured): the spirals agree (overfill +0.002 to +0.005, no spill); the zigzags' overfill +0.001 to +0.008 (vessel_ring: the fan's width steps down move by move faster than a 30 ms lag sheds), spill up to 0.0013, and 2 to 6 valve openings for 1 start"]
 fn on_the_default_printer_simulated_and_planned_metrics_agree() {
     let cfg = PrinterConfig::default();
     let mut bad = Vec::new();
@@ -160,33 +165,58 @@ fn on_the_default_printer_simulated_and_planned_metrics_agree() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-/// What holds on the default pneumatic printer today. The look-ahead brakes a depositing
-/// block no faster than the valves shed flow and a dip mid-road holds the valve at its dead
-/// band's edge, so the valves open a handful of times per layer (they shut and reopened at
-/// every hairpin, 94 to 1422 times a layer, before); the spirals agree with the plan within
-/// the bar, the zigzags within 0.01 (the bar is 0.005: see the ignored test above).
+/// Slices nobody tuned the motion on: on random slices (`random_slice`, up to 6 holes) the
+/// default printer opens the valves once per planned start on both layers and deposits
+/// nothing in a hole or outside the wall; the spiral's coverage agrees with its plan within
+/// 0.005 and its overfill within 0.01 (measured: +0.007 on a 0.22 mm road, whose turns lie
+/// exactly a road apart, so the bead's ±2.5 % width ripple through corners already doubles
+/// raster cells along every turn). The zigzag's rebuilt coverage is measured, not yet held
+/// to 0.005 (it falls 0.001 to 0.024 short of the plan on such slices: the note).
 #[test]
-fn on_the_default_printer_the_valves_follow_the_road() {
+fn on_random_slices_the_valves_open_once_per_start_and_nothing_spills() {
+    use host_sim::random_slice::{draw_many, Draw};
+    let how = Draw {
+        max_holes: 6,
+        ..Draw::default()
+    };
+    let slices = draw_many(401, 3, &how);
     let cfg = PrinterConfig::default();
-    let mut bad = Vec::new();
-    for (what, s) in simulate_all(&cfg) {
-        let zigzag = s.planned.pattern == "zigzag";
-        let (tol, spill) = if zigzag {
-            (0.01, 0.002)
-        } else {
-            (0.005, 0.0005)
-        };
-        let mut found = check_within(&what, &s, tol, spill);
-        // Openings are checked on their own below.
-        found.retain(|m| !m.contains("valve openings") || s.simulated.starts != s.planned.starts);
-        bad.extend(found);
-        if s.figures.any_openings > 8 * s.planned.starts {
-            bad.push(format!(
-                "{what}: {} valve openings for {} starts",
-                s.figures.any_openings, s.planned.starts
-            ));
+    let bad = run_on_large_stack(|| {
+        let mut bad = Vec::new();
+        for r in &slices {
+            let slice = &r.slice;
+            let planner = host_sim::plan(slice).unwrap();
+            let plan = planner.last_plan();
+            let field = BlendedField::new(slice, plan);
+            let field_fn = |p| field.at(p);
+            let mut meter = Meter::new(slice, Options::default());
+            for k in 0..2 {
+                let l = layer(slice, plan, Fill::Offset, k).unwrap();
+                let road = slice.settings().road_width;
+                let s = simulate_layer(&cfg, &l, &mut meter, road, &field_fn).unwrap();
+                let what = format!("seed {} layer {k} ({})", r.seed, s.planned.pattern);
+                let (p, q) = (&s.planned, &s.simulated);
+                println!(
+                    "{what}: coverage {:.4} / {:.4}, overfill {:.4} / {:.4}, spill {:.4} / {:.4}, starts {}, openings {}",
+                    p.coverage, q.coverage, p.overfill, q.overfill, p.spill, q.spill, p.starts,
+                    s.figures.any_openings
+                );
+                check_steps(&cfg, &what, &s);
+                if s.planned.pattern == "zigzag" {
+                    bad.extend(check_within(&what, &s, 1.0, 0.0005));
+                } else {
+                    bad.extend(check_within(&what, &s, 0.01, 0.0005));
+                    if (p.coverage - q.coverage).abs() > 0.005 {
+                        bad.push(format!(
+                            "{what}: coverage {:.4} / {:.4}",
+                            p.coverage, q.coverage
+                        ));
+                    }
+                }
+            }
         }
-    }
+        bad
+    });
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 

@@ -15,6 +15,13 @@
 //! exit by what can be reached. Each block gets a trapezoid: entry, cruise, exit at constant
 //! acceleration. All math is `f32` through `libm`, deterministic.
 //!
+//! **Narrowing the valves can follow.** The same lag holds for a road that narrows at
+//! constant speed: a step from width `w0` to `w1` takes the valve `tau ln(w0 / w1)` to shed,
+//! during which the bead runs wider than planned. So a depositing block narrower than the one
+//! before runs no faster than lets it last `1 / BRAKE_MARGIN` of that ([`narrowing_speed`],
+//! at least `NARROWING_FLOOR` of its nominal speed): the roads that taper into a keep-out
+//! curve or close up in an MCL fan slow down there, and the valve follows them.
+//!
 //! **Braking the valves can follow.** A pneumatic valve sheds flow at most at `q / tau` (its
 //! first-order lag, [`ChannelConfig::time_constant_s`](super::config::ChannelConfig)), and the
 //! flow a depositing block needs is proportional to its speed, so a depositing block may brake
@@ -22,8 +29,16 @@
 //! valve shuts and reopens mid-road and the bead swells into the corner. So a depositing block
 //! that brakes to a corner speed `v1 > 0` brakes at `min(accel, BRAKE_MARGIN v1 / tau)`
 //! ([`Block::decel`]): along its ramp the speed is at least `v1`, so the command stays at
-//! least `(1 - BRAKE_MARGIN) q`. A block that ends at rest (a road's end, a pause, a reversal)
-//! brakes at its full acceleration: there the valves shut anyway.
+//! least `(1 - BRAKE_MARGIN) q`. A block that ends at rest (a road's end, a pause, a reversal,
+//! and the tail, which the planner must be able to stop on) brakes as if into
+//! `STOP_BRAKE_SHARE` of its nominal speed: `min(accel, BRAKE_MARGIN STOP_BRAKE_SHARE v_nom /
+//! tau)`. Braking into rest at the full acceleration instead would make the planner
+//! non-monotone: the tail's assumed stop at full acceleration allows a faster entry than the
+//! gentle braking into the slow corner that a block appended behind it may reveal, so a block
+//! already taken by the step generator would have an exit its successor could no longer
+//! brake from, and its profile would stand still for milliseconds mid-road (the valves shut
+//! there). With braking that never weakens as the exit speed rises, appending a block only
+//! ever raises the bounds, and every profile taken is one that can be driven.
 
 use super::config::{PrinterConfig, AXES};
 use crate::toolpath::moves::Move;
@@ -108,6 +123,11 @@ impl Block {
 /// command stays at least `1 - BRAKE_MARGIN` of the flow along the ramp, room for the
 /// segments' sampling of the ramp.
 pub const BRAKE_MARGIN: f32 = 0.5;
+
+/// A depositing block braking to rest brakes as if into this share of its nominal speed (the
+/// module's essay): never harder than into a slow corner, so the braking bound only grows
+/// with the exit speed.
+pub const STOP_BRAKE_SHARE: f32 = 0.3;
 
 /// A trapezoidal speed profile along one block.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -339,6 +359,23 @@ pub fn junction_speed(a: &Block, b: &Block, deviation: f32) -> f32 {
     libm::sqrtf(v2).min(limit)
 }
 
+/// The fastest a depositing block `b` may run after `a` where its road is narrower: the
+/// valves shed the flow of the step `a.width -> b.width` (the bead's width at constant speed)
+/// in `tau ln(a.width / b.width)`, and the block lasts at least `1 / BRAKE_MARGIN` of that
+/// (the module's essay). Never below `NARROWING_FLOOR` of the block's nominal speed;
+/// unlimited where the road does not narrow or the valves have no lag.
+pub fn narrowing_speed(a: &Block, b: &Block, tau: f32) -> f32 {
+    if !(a.deposit && b.deposit) || tau <= 0.0 || b.width <= 0.0 || a.width <= b.width {
+        return f32::INFINITY;
+    }
+    let shed = tau * libm::logf(a.width / b.width);
+    (BRAKE_MARGIN * b.length / shed).max(NARROWING_FLOOR * b.nominal)
+}
+
+/// The slowest [`narrowing_speed`] goes, as a share of the block's nominal speed: steeper
+/// steps are left to the valves' envelope ([`valve`](super::valve)).
+pub const NARROWING_FLOOR: f32 = 0.2;
+
 /// The look-ahead ring of up to `N` blocks.
 #[derive(Clone, Debug)]
 pub struct Planner<const N: usize> {
@@ -400,6 +437,10 @@ impl<const N: usize> Planner<N> {
             return Err(Full(b));
         }
         b.pause_after = false;
+        if self.len > 0 {
+            let prev = &self.ring[self.index(self.len - 1)];
+            b.nominal = narrowing_speed(prev, &b, self.valve_tau).min(b.nominal);
+        }
         b.max_entry = match self.len {
             // The block before was taken with exit 0 (it was the tail).
             0 => 0.0,
@@ -473,8 +514,10 @@ impl<const N: usize> Planner<N> {
 
     /// How hard `b` may brake into an exit of `exit` mm/s (the module's essay).
     fn decel(&self, b: &Block, exit: f32) -> f32 {
-        if b.deposit && exit > 0.0 && self.valve_tau > 0.0 {
-            b.accel.min(BRAKE_MARGIN * exit / self.valve_tau)
+        if b.deposit && self.valve_tau > 0.0 {
+            // Non-decreasing in `exit`: the reverse pass's bounds only rise as blocks arrive.
+            let v = exit.max(STOP_BRAKE_SHARE * b.nominal);
+            b.accel.min(BRAKE_MARGIN * v / self.valve_tau)
         } else {
             b.accel
         }
@@ -614,6 +657,54 @@ mod tests {
         assert_eq!(p.get(0).unwrap().entry, 0.0);
         let head = p.pop().unwrap();
         assert_eq!(head.exit, p.get(0).unwrap().entry);
+    }
+
+    /// Whether a block's trapezoid fits its length: the ramps from its entry up to its cruise
+    /// and down to its exit, at its accel and decel, need no more than it has.
+    fn drivable(b: &Block) -> bool {
+        let p = b.profile();
+        let [v0, vc, v1] = p.v;
+        let need = (vc * vc - v0 * v0) / (2.0 * p.accel) + (vc * vc - v1 * v1) / (2.0 * p.decel);
+        need <= p.length * 1.001 + 1e-6
+    }
+
+    #[test]
+    fn every_block_taken_from_the_ring_can_be_driven_as_planned() {
+        // Short moves with a slow corner now and then, fed through a small ring the way the
+        // step generator takes them (pop when full): with the valve-limited braking, a tail
+        // that brakes to rest at full acceleration let the head run faster than the corner
+        // behind the next arrival allowed, and the profiles taken stood still at their ends.
+        let mut pts = std::vec::Vec::new();
+        let (mut x, mut y, mut seed) = (0.0f32, 0.0f32, 777u32);
+        let mut heading = 0.0f32;
+        for _ in 0..3000 {
+            seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+            let r = 0.003 + ((seed >> 4) % 64) as f32 * 0.0008;
+            if (seed >> 12) % 23 == 0 {
+                heading += 2.5;
+            } else {
+                heading += ((seed >> 16) % 100) as f32 * 0.002 - 0.1;
+            }
+            x += r * libm::cosf(heading);
+            y += r * libm::sinf(heading);
+            pts.push((x, y));
+        }
+        let b = blocks(&pts);
+        for tau in [0.0, 0.03, 0.1] {
+            let mut p = Planner::<8>::new(0.01, tau);
+            let mut taken = 0;
+            for blk in &b {
+                if p.is_full() {
+                    let h = p.pop().unwrap();
+                    assert!(drivable(&h), "tau {tau} block {taken}: {:?}", h.profile());
+                    taken += 1;
+                }
+                p.push(*blk).unwrap();
+            }
+            while let Some(h) = p.pop() {
+                assert!(drivable(&h), "tau {tau} tail: {:?}", h.profile());
+            }
+        }
     }
 
     #[test]

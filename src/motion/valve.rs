@@ -20,10 +20,17 @@
 //! the deposit where a plain `Td + tau` advance would smear it. The command is never below 0
 //! (the valve cannot pull material back): braking faster than `v / tau` would outrun the
 //! valve, so the look-ahead never brakes a depositing block faster than that into a corner
-//! ([`planner`](super::planner)'s essay). Mid-road (the road still deposits a time constant
-//! on) the command is never below [`HOLD`] of the flow asked for: where the flow steps down
-//! faster than the valve sheds it (a narrower road) the valve dips rather than shutting and
-//! reopening. At a road's end it shuts as early as `q + tau dq/dt` says, and a channel opens
+//! ([`planner`](super::planner)'s essay). Where the flow asked for steps down faster than the
+//! valve can shed it (a road narrowing move by move towards a keep-out curve, an MCL fan
+//! closing), the command follows its *envelope* instead ([`envelope`]): the largest flow
+//! from which the valve, shut as far as it goes, still reaches every later segment's flow in
+//! time (`min over j` of `q(j) exp((t_j - t) / tau)`, over [`SHED_HORIZON_TAU`] time
+//! constants). The valve starts shedding before the step, so the bead narrows a little early
+//! instead of running wide past it (into the keep-out band, or doubling its neighbour);
+//! where the flow never falls that fast the envelope is the flow itself. Mid-road (the road
+//! still deposits a time constant on) the command is never below [`HOLD`] of the flow asked
+//! for: where the flow still falls faster than the valve sheds it, the valve dips rather than
+//! shutting and reopening. At a road's end it shuts as early as `q + tau dq/dt` says, and a channel opens
 //! `lead_s` earlier still at a road's start and shuts `lag_s` earlier at its end.
 //!
 //! **Closed.** A road that starts from rest (the first, after travel, after a pause) is
@@ -93,6 +100,8 @@ struct Channel {
     /// Segments of a time constant (at least 1): how far on a road must still deposit for
     /// a dip in the command to be held at [`HOLD`].
     hold_horizon: usize,
+    /// Segments the envelope looks past the commanded one ([`SHED_HORIZON_TAU`]).
+    shed_horizon: usize,
     /// The lag's decay over one segment, `exp(-SEGMENT_S / tau)` (0 without a lag), and the
     /// share of a step's distance its mean over that segment still lies from the target,
     /// `tau / SEGMENT_S (1 - r)` (0 without a lag).
@@ -105,6 +114,107 @@ struct Channel {
     /// The duty last written, in the output's units.
     duty: Option<u16>,
 }
+
+/// How far ahead the envelope looks, in time constants: a drop to `exp(-3)` (5 %) of the flow
+/// within it is shed in time; a deeper one is shed as far as the lag allows.
+pub const SHED_HORIZON_TAU: f32 = 3.0;
+
+/// Every channel's flow at segments `k - 1`, `k` and `k + 1` as the valves can follow it (the
+/// module's essay), over the `horizon` segments after `k + 1`.
+///
+/// Each channel's *envelope* is the flow asked for where it never falls faster than the lag
+/// sheds it (a factor `r` per segment), otherwise lowered ahead of the fall: `min over
+/// j >= i` of `q(j) / r^(j - i)`. A segment of no flow bounds nothing before it (the valve
+/// shuts there as before), and one of less than [`STOP_SHARE`] of the road's flow now (the
+/// nozzle coming to rest) bounds it only down to that share. Where a channel sheds early only because its
+/// share of the composition runs out, the road's total would fall short of what the total's
+/// own envelope allows; that deficit goes to the channels that are not shedding, in
+/// proportion to their flows (a composition blends anyway; a road's width is geometry), so
+/// the bead narrows early only where the road itself narrows or slows faster than the lag.
+fn envelopes(
+    at: &impl Fn(usize, usize) -> f32,
+    k: usize,
+    r: f32,
+    horizon: usize,
+    channels: usize,
+) -> [[f32; 3]; CHANNELS] {
+    let first = k.saturating_sub(1);
+    let pos = [first, k, k + 1];
+    let mut out = [[0.0f32; 3]; CHANNELS];
+    if r <= 0.0 {
+        for (c, o) in out.iter_mut().enumerate().take(channels) {
+            *o = pos.map(|j| at(c, j));
+        }
+        return out;
+    }
+    // The road's flow where it is commanded: a segment ahead with less than STOP_SHARE of
+    // it is the nozzle coming to rest, which bounds the flow no lower than that share.
+    let stop = STOP_SHARE * (0..channels).map(|c| at(c, k)).sum::<f32>();
+    // The bound each channel's (and the total's, last) successors put on a segment, from
+    // the far end back.
+    let mut bound = [f32::INFINITY; CHANNELS + 1];
+    let step = |j: usize, bound: &mut [f32; CHANNELS + 1]| -> [f32; CHANNELS + 1] {
+        let mut q = [0.0f32; CHANNELS + 1];
+        for c in 0..channels {
+            q[c] = at(c, j);
+            q[CHANNELS] += q[c];
+        }
+        // Coming to rest, each flow bounds no lower than its share of `stop`.
+        let rest = if q[CHANNELS] < stop {
+            stop / q[CHANNELS]
+        } else {
+            1.0
+        };
+        for (b, &qc) in bound.iter_mut().zip(q.iter()) {
+            *b = if qc > 0.0 {
+                (qc * rest).min(*b / r)
+            } else {
+                f32::INFINITY
+            };
+        }
+        q
+    };
+    for j in ((k + 2)..=(k + 1 + horizon)).rev() {
+        step(j, &mut bound);
+    }
+    for i in (0..3).rev() {
+        if i == 0 && first == k {
+            // At the dead time 0 the segment "before" is the current one itself.
+            for o in out.iter_mut() {
+                o[0] = o[1];
+            }
+            break;
+        }
+        let q = step(pos[i], &mut bound);
+        let env = |c: usize| if q[c] > 0.0 { bound[c] } else { 0.0 };
+        let total = env(CHANNELS);
+        let (mut sum, mut free) = (0.0f32, 0.0f32);
+        for c in 0..channels {
+            sum += env(c);
+            if q[c] > 0.0 && env(c) >= q[c] {
+                free += q[c];
+            }
+        }
+        let deficit = (total - sum).max(0.0);
+        for (c, o) in out.iter_mut().enumerate().take(channels) {
+            let e = env(c);
+            o[i] = if deficit > 0.0 && free > 0.0 && q[c] > 0.0 && e >= q[c] {
+                e + deficit * q[c] / free
+            } else if deficit > 0.0 && free <= 0.0 && sum > 0.0 {
+                e * (1.0 + deficit / sum)
+            } else {
+                e
+            };
+        }
+    }
+    out
+}
+
+/// Where the road's flow ahead falls below this share of the flow now commanded, the nozzle
+/// is coming to rest (a road's end, a reversal, a pause): the envelope sheds ahead of that
+/// only down to this share, or it would narrow the last time constants of every road to
+/// nothing (the rest of the fall is the bead's end, as without the envelope).
+pub const STOP_SHARE: f32 = 0.3;
 
 /// The least command mid-road, as a share of the flow asked for. Where the flow asked for
 /// falls faster than the valve sheds it (a narrower road, sharper braking than `v / tau`),
@@ -135,6 +245,7 @@ impl Channel {
             lead: segments(cfg.lead_s),
             lag: segments(cfg.lag_s),
             hold_horizon: segments(cfg.time_constant_s).max(1),
+            shed_horizon: segments(SHED_HORIZON_TAU * cfg.time_constant_s),
             r,
             g,
             y: 0.0,
@@ -228,12 +339,20 @@ impl Valves {
         let mut held = [false; CHANNELS];
         let mut excess = [0.0f32; 2];
         let mut free_flow = 0.0f32;
+        let n = self.ch.len();
+        // The envelopes for one dead time, computed again only for a channel with another.
+        let mut env = [[0.0f32; 3]; CHANNELS];
+        let mut env_k = None;
         for (c, ch) in self.ch.iter_mut().enumerate() {
             // The valve's flow at the start of the segment now commanded, after the last
             // command acted for one segment.
             ch.y = ch.last + (ch.y - ch.last) * ch.r;
             let k = ch.dead;
-            let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
+            if env_k != Some(k) {
+                env = envelopes(&at, k, ch.r, ch.shed_horizon, n);
+                env_k = Some(k);
+            }
+            let q = env[c];
             let raw = q[1] + ch.tau * slope(q, k);
             // Mid-road (the road, in any channel, still deposits a time constant on) never
             // below HOLD of the flow asked for: a dip, not a shut valve (the module's essay).
@@ -284,7 +403,7 @@ impl Valves {
             // A channel about to shut shuts `lag` segments early; one about to open opens
             // `lead` segments early (the stateless command of those segments).
             let ahead = |k: usize| -> f32 {
-                let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
+                let q = envelopes(&at, k, ch.r, ch.shed_horizon, n)[c];
                 (q[1] + ch.tau * slope(q, k)).max(0.0)
             };
             if ch.lag > 0 && out[c] > 0.0 && ahead(ch.dead + ch.lag) == 0.0 {
