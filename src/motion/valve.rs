@@ -131,33 +131,46 @@ pub const SHED_HORIZON_TAU: f32 = 3.0;
 /// own envelope allows; that deficit goes to the channels that are not shedding, in
 /// proportion to their flows (a composition blends anyway; a road's width is geometry), so
 /// the bead narrows early only where the road itself narrows or slows faster than the lag.
-fn envelopes(
-    at: &impl Fn(usize, usize) -> f32,
+fn envelopes<const R: usize>(
+    current: &Segment,
+    ring: &heapless::Deque<Segment, R>,
     k: usize,
     r: f32,
     horizon: usize,
     channels: usize,
 ) -> [[f32; 3]; CHANNELS] {
+    // Segment `j` ahead of the current one (0 past the end of what is prepared).
+    let seg = |j: usize| -> Option<&Segment> {
+        match j {
+            0 => Some(current),
+            j => ring.iter().nth(j - 1),
+        }
+    };
+    let flows = |j: usize| -> [f32; CHANNELS] { seg(j).map_or([0.0; CHANNELS], |s| s.flow) };
     let first = k.saturating_sub(1);
     let pos = [first, k, k + 1];
     let mut out = [[0.0f32; 3]; CHANNELS];
     if r <= 0.0 {
-        for (c, o) in out.iter_mut().enumerate().take(channels) {
-            *o = pos.map(|j| at(c, j));
+        for (i, &j) in pos.iter().enumerate() {
+            let q = flows(j);
+            for c in 0..channels {
+                out[c][i] = q[c];
+            }
         }
         return out;
     }
+    let grow = 1.0 / r;
     // The road's flow where it is commanded: a segment ahead with less than STOP_SHARE of
     // it is the nozzle coming to rest, which bounds the flow no lower than that share.
-    let stop = STOP_SHARE * (0..channels).map(|c| at(c, k)).sum::<f32>();
+    let stop = STOP_SHARE * flows(k)[..channels].iter().sum::<f32>();
     // The bound each channel's (and the total's, last) successors put on a segment, from
     // the far end back.
     let mut bound = [f32::INFINITY; CHANNELS + 1];
-    let step = |j: usize, bound: &mut [f32; CHANNELS + 1]| -> [f32; CHANNELS + 1] {
+    let step = |flow: &[f32; CHANNELS], bound: &mut [f32; CHANNELS + 1]| -> [f32; CHANNELS + 1] {
         let mut q = [0.0f32; CHANNELS + 1];
         for c in 0..channels {
-            q[c] = at(c, j);
-            q[CHANNELS] += q[c];
+            q[c] = flow[c];
+            q[CHANNELS] += flow[c];
         }
         // Coming to rest, each flow bounds no lower than its share of `stop`.
         let rest = if q[CHANNELS] < stop {
@@ -167,15 +180,19 @@ fn envelopes(
         };
         for (b, &qc) in bound.iter_mut().zip(q.iter()) {
             *b = if qc > 0.0 {
-                (qc * rest).min(*b / r)
+                (qc * rest).min(*b * grow)
             } else {
                 f32::INFINITY
             };
         }
         q
     };
-    for j in ((k + 2)..=(k + 1 + horizon)).rev() {
-        step(j, &mut bound);
+    // Segments k + 2 ..= k + 1 + horizon are ring entries k + 1 .. k + horizon, walked back.
+    let far = ring.len().min(k + 1 + horizon);
+    if far > k + 1 {
+        for s in ring.iter().take(far).skip(k + 1).rev() {
+            step(&s.flow, &mut bound);
+        }
     }
     for i in (0..3).rev() {
         if i == 0 && first == k {
@@ -185,7 +202,7 @@ fn envelopes(
             }
             break;
         }
-        let q = step(pos[i], &mut bound);
+        let q = step(&flows(pos[i]), &mut bound);
         let env = |c: usize| if q[c] > 0.0 { bound[c] } else { 0.0 };
         let total = env(CHANNELS);
         let (mut sum, mut free) = (0.0f32, 0.0f32);
@@ -349,7 +366,7 @@ impl Valves {
             ch.y = ch.last + (ch.y - ch.last) * ch.r;
             let k = ch.dead;
             if env_k != Some(k) {
-                env = envelopes(&at, k, ch.r, ch.shed_horizon, n);
+                env = envelopes(current, ring, k, ch.r, ch.shed_horizon, n);
                 env_k = Some(k);
             }
             let q = env[c];
@@ -403,7 +420,7 @@ impl Valves {
             // A channel about to shut shuts `lag` segments early; one about to open opens
             // `lead` segments early (the stateless command of those segments).
             let ahead = |k: usize| -> f32 {
-                let q = envelopes(&at, k, ch.r, ch.shed_horizon, n)[c];
+                let q = envelopes(current, ring, k, ch.r, ch.shed_horizon, n)[c];
                 (q[1] + ch.tau * slope(q, k)).max(0.0)
             };
             if ch.lag > 0 && out[c] > 0.0 && ahead(ch.dead + ch.lag) == 0.0 {
