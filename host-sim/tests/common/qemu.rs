@@ -166,34 +166,45 @@ impl Qemu {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let mut err = BufReader::new(child.stderr.take().unwrap());
         let out = Arc::new(Mutex::new(String::new()));
+        let err = Arc::new(Mutex::new(String::new()));
         collect(BufReader::new(child.stdout.take().unwrap()), out.clone());
+        collect(BufReader::new(child.stderr.take().unwrap()), err.clone());
+        // QEMU says it listens on stderr, and names its pty on stdout (among the
+        // firmware's semihosting lines).
         let mut pty = None;
-        let mut seen = String::new();
-        if serial != Serial::Default {
-            let mut line = String::new();
-            loop {
-                line.clear();
-                let n = err.read_line(&mut line).unwrap();
-                assert!(n > 0, "QEMU exited before its UART was ready:\n{seen}");
-                seen.push_str(&line);
-                if serial != Serial::Pty && line.contains("waiting for connection") {
-                    break;
-                }
-                if let Some(rest) = line.split("char device redirected to ").nth(1) {
-                    pty = rest.split_whitespace().next().map(str::to_string);
-                    break;
-                }
+        let t = Instant::now();
+        while serial != Serial::Default {
+            if serial != Serial::Pty && err.lock().unwrap().contains("waiting for connection") {
+                break;
             }
+            if let Some(rest) = out
+                .lock()
+                .unwrap()
+                .split("char device redirected to ")
+                .nth(1)
+            {
+                pty = rest.split_whitespace().next().map(str::to_string);
+                break;
+            }
+            if let Some(s) = child.try_wait().unwrap() {
+                panic!(
+                    "QEMU exited ({s}) before its UART was ready:\n{}",
+                    err.lock().unwrap()
+                );
+            }
+            assert!(
+                t.elapsed() < Duration::from_secs(60),
+                "QEMU's UART not ready in time:\n{}",
+                err.lock().unwrap()
+            );
+            std::thread::sleep(Duration::from_millis(10));
         }
-        let errs = Arc::new(Mutex::new(seen));
-        collect(err, errs.clone());
         Qemu {
             child,
             pty,
             out,
-            err: errs,
+            err,
         }
     }
 
