@@ -174,9 +174,11 @@ impl Qemu {
         // firmware's semihosting lines).
         let mut pty = None;
         let t = Instant::now();
-        while serial != Serial::Default {
+        let mut ready = serial == Serial::Default;
+        while !ready {
             if serial != Serial::Pty && err.lock().unwrap().contains("waiting for connection") {
-                break;
+                ready = true;
+                continue;
             }
             if let Some(rest) = out
                 .lock()
@@ -185,7 +187,8 @@ impl Qemu {
                 .nth(1)
             {
                 pty = rest.split_whitespace().next().map(str::to_string);
-                break;
+                ready = true;
+                continue;
             }
             if let Some(s) = child.try_wait().unwrap() {
                 panic!(
