@@ -24,6 +24,9 @@ use crate::slice_file::Contours;
 
 /// Frames the host keeps unacknowledged.
 pub const WINDOW: usize = 4;
+/// Longest wait for the controller to accept an uploaded slice (its reply may have to wait
+/// for the planning of the slice, minutes on an emulated controller, if a frame was lost).
+pub const SLICE_WAIT: Duration = Duration::from_secs(300);
 /// The host's end of the link.
 pub type HostLink = Link<HostMsg, CtrlMsg, WINDOW>;
 
@@ -329,10 +332,16 @@ impl<S: Read + Write> LinkClient<S> {
             self.send(&msg.map_err(ClientError::Slice)?)?;
             messages += 1;
         }
-        let (holes, vertices) = self.wait_for("slice acceptance", |m| match *m {
+        // The acceptance goes out just before the controller plans the slice, when it serves
+        // no link: should its frame be lost on the way, it comes again after the planning.
+        let full = self.timeout;
+        self.timeout = full.max(SLICE_WAIT);
+        let accepted = self.wait_for("slice acceptance", |m| match *m {
             CtrlMsg::SliceAccepted { holes, vertices } => Some((holes, vertices)),
             _ => None,
-        })?;
+        });
+        self.timeout = full;
+        let (holes, vertices) = accepted?;
         Ok(UploadReport {
             messages,
             bytes: self.written - before,
