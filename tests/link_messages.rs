@@ -8,9 +8,10 @@ use hollowpath::link::endpoint::{Link, LinkConfig};
 use hollowpath::link::error::LinkError;
 use hollowpath::link::frame::MAX_PAYLOAD;
 use hollowpath::link::message::{
-    Capacities, CtrlMsg, HostMsg, LayerTelemetry, Phase, RemoteError, Status, Telemetry, Version,
-    PROTOCOL_VERSION,
+    Capacities, CtrlMsg, HostMsg, LayerTelemetry, Phase, RemoteError, Status, StopReport,
+    Telemetry, Version, CHUNK_BYTES, PROTOCOL_VERSION, SMALL_PAYLOAD,
 };
+use hollowpath::link::upload::printer;
 use hollowpath::link::wire::{WirePrinterError, PRINTER_KEYS};
 use hollowpath::motion::config::{CurvePoint, PrinterConfig, PrinterError, CURVE_POINTS};
 use hollowpath::motion::Fault;
@@ -48,11 +49,11 @@ fn full_chunk() -> HostMsg {
 }
 
 fn host_messages() -> Vec<HostMsg> {
-    vec![
-        HostMsg::Hello {
-            protocol: PROTOCOL_VERSION,
-        },
-        HostMsg::Printer(full_printer()),
+    let mut v = vec![HostMsg::Hello {
+        protocol: PROTOCOL_VERSION,
+    }];
+    v.extend(printer(&full_printer()).unwrap());
+    v.extend([
         HostMsg::Job {
             settings: Settings::for_road_width(0.33),
             layers: 400,
@@ -68,7 +69,8 @@ fn host_messages() -> Vec<HostMsg> {
         HostMsg::Pause,
         HostMsg::Resume,
         HostMsg::Abort,
-    ]
+    ]);
+    v
 }
 
 fn errors() -> Vec<RemoteError> {
@@ -188,6 +190,14 @@ fn ctrl_messages() -> Vec<CtrlMsg> {
         })),
     ];
     v.extend(errors().into_iter().map(CtrlMsg::Error));
+    v.push(CtrlMsg::Stopped(StopReport {
+        fault: Fault::HostSilent,
+        layer: 3,
+        at_us: u64::MAX,
+        heard_us: Some(1 << 40),
+        watchdog_us: 30_000_000,
+        steps: [u64::MAX, 1, 0],
+    }));
     v
 }
 
@@ -197,6 +207,17 @@ fn every_message_round_trips_and_fits_a_frame() {
         let mut buf = [0u8; MAX_PAYLOAD];
         let bytes = postcard::to_slice(&m, &mut buf).unwrap_or_else(|e| panic!("{m:?}: {e}"));
         assert_eq!(postcard::from_bytes::<HostMsg>(bytes).unwrap(), m);
+        // Small frames: on a line that spoils 1 % of the bytes most arrive whole.
+        assert!(bytes.len() <= SMALL_PAYLOAD, "{} bytes: {m:?}", bytes.len());
+    }
+    // The fullest printer takes several chunks, each but the last full.
+    let chunks: Vec<HostMsg> = printer(&full_printer()).unwrap().collect();
+    assert!(chunks.len() >= 3, "{}", chunks.len());
+    for c in &chunks[..chunks.len() - 1] {
+        let HostMsg::Printer(c) = c else {
+            panic!("{c:?}")
+        };
+        assert_eq!(c.data.len(), CHUNK_BYTES);
     }
     for m in ctrl_messages() {
         let mut buf = [0u8; MAX_PAYLOAD];

@@ -85,6 +85,11 @@ fn run(
     (events, got)
 }
 
+/// The printer configuration's chunks.
+fn printer_msgs(p: &PrinterConfig) -> Vec<HostMsg> {
+    hollowpath::link::upload::printer(p).unwrap().collect()
+}
+
 fn hello() -> HostMsg {
     HostMsg::Hello {
         protocol: PROTOCOL_VERSION,
@@ -94,7 +99,8 @@ fn hello() -> HostMsg {
 #[test]
 fn a_slice_uploads_validates_and_starts() {
     let slice = two_circles(Settings::default());
-    let mut msgs = vec![hello(), HostMsg::Printer(PrinterConfig::default())];
+    let mut msgs = vec![hello()];
+    msgs.extend(printer_msgs(&PrinterConfig::default()));
     msgs.extend(upload(&slice, 12).map(Result::unwrap));
     let (mut host, mut ctrl, mut now) = (Host::new(CFG), Ctrl::new(CFG, FW), 0);
     let (events, got) = run(&mut host, &mut ctrl, &msgs, &mut now);
@@ -204,13 +210,11 @@ fn a_bad_slice_is_refused_with_the_cores_error_and_never_started() {
     let wall = circle(0.0, 0.0, 12.0, 64, 0.0);
     let h0 = circle(-5.0, 0.0, 2.0, 32, 0.0);
     let h1 = circle(11.0, 0.0, 2.0, 32, 0.0);
-    let mut msgs = vec![
-        HostMsg::Printer(PrinterConfig::default()),
-        HostMsg::Job {
-            settings: Settings::default(),
-            layers: 3,
-        },
-    ];
+    let mut msgs = printer_msgs(&PrinterConfig::default());
+    msgs.push(HostMsg::Job {
+        settings: Settings::default(),
+        layers: 3,
+    });
     for (id, pts, m) in [
         (FeatureId::Wall, &wall, WALL),
         (FeatureId::Hole(0), &h0, A),
@@ -241,7 +245,7 @@ fn a_bad_slice_is_refused_with_the_cores_error_and_never_started() {
 fn a_printer_the_motion_code_cannot_drive_is_refused_by_key() {
     let mut p = PrinterConfig::default();
     p.channel[2].pwm_hz = 0.0;
-    let errs = refusal_of(vec![HostMsg::Printer(p.clone())]);
+    let errs = refusal_of(printer_msgs(&p));
     let RemoteError::Printer(w) = errs[0] else {
         panic!("{errs:?}")
     };
@@ -335,11 +339,9 @@ fn assembler_refusals_name_what_to_change() {
 fn a_restarted_host_opens_a_new_session() {
     let (mut host, mut ctrl, mut now) = (Host::new(CFG), Ctrl::new(CFG, FW), 0);
     host.open(1);
-    let msgs = [
-        hello(),
-        HostMsg::Printer(PrinterConfig::default()),
-        HostMsg::Pause,
-    ];
+    let mut msgs = vec![hello()];
+    msgs.extend(printer_msgs(&PrinterConfig::default()));
+    msgs.push(HostMsg::Pause);
     let (events, _) = run(&mut host, &mut ctrl, &msgs, &mut now);
     assert_eq!(events, [Event::Hello, Event::Printer, Event::Pause]);
     // The controller has frames in flight to a host that is gone ...

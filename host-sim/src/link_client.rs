@@ -16,12 +16,17 @@ use hollowpath::link::error::LinkError;
 use hollowpath::link::message::{
     check_protocol, Capacities, CtrlMsg, HostMsg, RemoteError, Version, PROTOCOL_VERSION,
 };
-use hollowpath::link::upload::upload;
+use hollowpath::link::upload::{self, upload};
 use hollowpath::motion::config::PrinterConfig;
 use hollowpath::Slice;
 
+use crate::slice_file::Contours;
+
 /// Frames the host keeps unacknowledged.
 pub const WINDOW: usize = 4;
+/// Longest wait for the controller to accept an uploaded slice (its reply may have to wait
+/// for the planning of the slice, minutes on an emulated controller, if a frame was lost).
+pub const SLICE_WAIT: Duration = Duration::from_secs(300);
 /// The host's end of the link.
 pub type HostLink = Link<HostMsg, CtrlMsg, WINDOW>;
 
@@ -286,9 +291,12 @@ impl<S: Read + Write> LinkClient<S> {
         Ok((firmware, capacities))
     }
 
-    /// Sends the printer configuration and waits for the controller to accept it.
+    /// Sends the printer configuration (in [`HostMsg::Printer`] chunks) and waits for the
+    /// controller to accept it.
     pub fn send_printer(&mut self, printer: &PrinterConfig) -> Result<(), ClientError> {
-        self.send(&HostMsg::Printer(printer.clone()))?;
+        for msg in upload::printer(printer).map_err(ClientError::Link)? {
+            self.send(&msg)?;
+        }
         self.wait_for("printer acceptance", |m| {
             matches!(m, CtrlMsg::PrinterAccepted).then_some(())
         })
@@ -297,16 +305,43 @@ impl<S: Read + Write> LinkClient<S> {
     /// Uploads `slice` (to be printed in `layers` layers) and waits until the controller
     /// has built and validated it.
     pub fn upload(&mut self, slice: &Slice, layers: u16) -> Result<UploadReport, ClientError> {
+        self.upload_messages(upload(slice, layers))
+    }
+
+    /// Uploads a slice file's contours as they are, not validated on the host (the
+    /// controller's verdict: a slice the host would refuse comes back refused with the same
+    /// typed error), and waits until the controller has built and validated it.
+    pub fn upload_contours(
+        &mut self,
+        c: &Contours,
+        layers: u16,
+    ) -> Result<UploadReport, ClientError> {
+        let holes = c.hole_refs();
+        self.upload_messages(upload::upload_contours(
+            &c.wall.0, c.wall.1, &holes, c.settings, layers,
+        ))
+    }
+
+    fn upload_messages(
+        &mut self,
+        msgs: impl Iterator<Item = Result<HostMsg, hollowpath::Error>>,
+    ) -> Result<UploadReport, ClientError> {
         let before = self.written;
         let mut messages = 0;
-        for msg in upload(slice, layers) {
+        for msg in msgs {
             self.send(&msg.map_err(ClientError::Slice)?)?;
             messages += 1;
         }
-        let (holes, vertices) = self.wait_for("slice acceptance", |m| match *m {
+        // The acceptance goes out just before the controller plans the slice, when it serves
+        // no link: should its frame be lost on the way, it comes again after the planning.
+        let full = self.timeout;
+        self.timeout = full.max(SLICE_WAIT);
+        let accepted = self.wait_for("slice acceptance", |m| match *m {
             CtrlMsg::SliceAccepted { holes, vertices } => Some((holes, vertices)),
             _ => None,
-        })?;
+        });
+        self.timeout = full;
+        let (holes, vertices) = accepted?;
         Ok(UploadReport {
             messages,
             bytes: self.written - before,

@@ -135,9 +135,14 @@ enum Command {
         /// Number of layers (zigzag, offset spiral, zigzag, ...).
         #[arg(long, default_value_t = 2, value_parser = layer_count)]
         layers: usize,
-        /// Write the telemetry here (JSON: digest, layers, retransmitted).
+        /// Write the telemetry here (JSON: digest, layers, retransmitted, upload_bytes,
+        /// upload_messages, last_stop).
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Send the file's contours without validating the slice on the host: the
+        /// controller's own verdict (a bad slice comes back with the error `plan` gives).
+        #[arg(long)]
+        no_check: bool,
     },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
     /// G-code, and a metrics table against the raster baseline; then slice the built-in
@@ -276,44 +281,64 @@ fn execute(cli: Cli) -> ExitCode {
             printer,
             layers,
             report,
-        } => slice_file::load(&slice)
-            .map_err(|e| format!("{}: {e}", slice.display()))
-            .and_then(|f| {
-                let cfg = match &printer {
-                    Some(p) => {
-                        printer_file::load(p).map_err(|e| format!("{}: {e}", p.display()))?
+            no_check,
+        } => {
+            let loaded = if no_check {
+                slice_file::load_contours(&slice).map(|c| (None, Some(c)))
+            } else {
+                slice_file::load(&slice).map(|f| (Some(f), None))
+            };
+            loaded
+                .map_err(|e| format!("{}: {e}", slice.display()))
+                .and_then(|(file, contours)| {
+                    let cfg = match &printer {
+                        Some(p) => printer_file::load(p)
+                            .map_err(|e| format!("{}: {e}", p.display()))?,
+                        None => hollowpath::motion::PrinterConfig::default(),
+                    };
+                    let job = match (&file, &contours) {
+                        (Some(f), _) => {
+                            cfg.check_slice(&f.slice)
+                                .map_err(|e| format!("printer and slice: {e}"))?;
+                            host_sim::print::Job::Slice(&f.slice)
+                        }
+                        (None, Some(c)) => host_sim::print::Job::Unchecked(c),
+                        (None, None) => return Err("no slice".into()),
+                    };
+                    let stream = match (&port, &tcp) {
+                        (_, Some(addr)) => host_sim::print::open_tcp(addr)?,
+                        (Some(p), None) => host_sim::print::open_serial(p)?,
+                        (None, None) => return Err("--port or --tcp is needed".into()),
+                    };
+                    let interrupted =
+                        std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+                    let flag = interrupted.clone();
+                    if let Err(e) = ctrlc::set_handler(move || {
+                        flag.store(true, std::sync::atomic::Ordering::Relaxed)
+                    }) {
+                        eprintln!("note: Ctrl-C cannot abort the job ({e})");
                     }
-                    None => hollowpath::motion::PrinterConfig::default(),
-                };
-                cfg.check_slice(&f.slice)
-                    .map_err(|e| format!("printer and slice: {e}"))?;
-                let stream = match (&port, &tcp) {
-                    (_, Some(addr)) => host_sim::print::open_tcp(addr)?,
-                    (Some(p), None) => host_sim::print::open_serial(p)?,
-                    (None, None) => return Err("--port or --tcp is needed".into()),
-                };
-                let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-                let flag = interrupted.clone();
-                let _ = ctrlc::set_handler(move || {
-                    flag.store(true, std::sync::atomic::Ordering::Relaxed)
-                });
-                let layers = u16::try_from(layers).map_err(|_| "too many layers".to_string())?;
-                let r = host_sim::print::print(stream, &f.slice, &cfg, layers, interrupted)
-                    .map_err(|e| e.to_string())?;
-                println!(
-                    "printed {} layers, plan {:016x}, {} frames retransmitted",
-                    r.layers.len(),
-                    r.digest,
-                    r.retransmitted
-                );
-                if let Some(path) = &report {
-                    let text = serde_json::to_string_pretty(&r.json(cfg.channels().len()))
+                    let layers =
+                        u16::try_from(layers).map_err(|_| "too many layers".to_string())?;
+                    let r = host_sim::print::print(stream, job, &cfg, layers, interrupted)
                         .map_err(|e| e.to_string())?;
-                    std::fs::write(path, text)
-                        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-                }
-                Ok(())
-            }),
+                    println!(
+                        "printed {} layers, plan {:016x}, {} frames retransmitted, upload {} bytes in {} messages",
+                        r.layers.len(),
+                        r.digest,
+                        r.retransmitted,
+                        r.upload_bytes,
+                        r.upload_messages
+                    );
+                    if let Some(path) = &report {
+                        let text = serde_json::to_string_pretty(&r.json(cfg.channels().len()))
+                            .map_err(|e| e.to_string())?;
+                        std::fs::write(path, text)
+                            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                    }
+                    Ok(())
+                })
+        }
         Command::Demo { out } => slice_file::parse(host_sim::DEFAULT_SLICE)
             .map_err(|e| format!("built-in slice: {e}"))
             .and_then(|f| {

@@ -8,7 +8,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hollowpath::link::endpoint::LinkConfig;
-use hollowpath::link::message::{CtrlMsg, LayerTelemetry, Phase, Telemetry};
+use hollowpath::link::message::{
+    CtrlMsg, HostMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry,
+};
 use hollowpath::motion::PrinterConfig;
 use hollowpath::Slice;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -16,18 +18,25 @@ use serde_json::{json, Value};
 
 use crate::link_client::{ClientError, LinkClient};
 use crate::simulate::telemetry_value;
+use crate::slice_file::Contours;
 
-/// The host's link timers: the controller's acks come at once, a keep-alive every 2 ms
-/// keeps its watchdog fed (an emulated controller's clock runs fast), no watchdog here (a
-/// silent controller shows as a timeout).
+/// The host's link timers: the controller's acks come at once (within a millisecond over
+/// TCP to QEMU), so a frame unacknowledged for 40 ms is sent again (on a line that spoils
+/// one byte in a hundred, about every other contour frame is; a nak usually asks for it
+/// sooner). A keep-alive every 2 ms keeps the controller's watchdog fed (an emulated
+/// controller's clock runs fast); no watchdog here (a silent controller shows as a
+/// timeout).
 pub const HOST_LINK: LinkConfig = LinkConfig {
-    retransmit_us: 200_000,
+    retransmit_us: 40_000,
     keepalive_us: 2_000,
     watchdog_us: 0,
 };
 
 /// Longest wait for any message during a job.
 pub const SILENCE: Duration = Duration::from_secs(300);
+
+/// Longest wait for the controller to confirm an abort (Ctrl-C).
+pub const ABORT_WAIT: Duration = Duration::from_secs(20);
 
 /// A byte stream for the link: a TCP socket or a serial port.
 pub trait Stream: Read + Write + Send {}
@@ -42,13 +51,67 @@ pub fn open_tcp(addr: &str) -> Result<Box<dyn Stream>, String> {
     Ok(Box::new(s))
 }
 
-/// Opens `--port PORT` (115200 8N1, short read timeouts).
+/// Opens `--port PORT` (115200 8N1, short read timeouts). A port that refuses the line
+/// settings (some pseudo-terminals) is opened without them, and that is said on stderr:
+/// a pty moves bytes at any rate.
 pub fn open_serial(port: &str) -> Result<Box<dyn Stream>, String> {
-    let p = serialport::new(port, 115_200)
+    match serialport::new(port, 115_200)
         .timeout(Duration::from_millis(1))
         .open()
+    {
+        Ok(p) => Ok(Box::new(p)),
+        Err(e) if e.kind() == serialport::ErrorKind::NoDevice => Err(format!("{port}: {e}")),
+        Err(e) => {
+            eprintln!(
+                "{port}: the serial line settings (115200 8N1) failed ({e}); using the port as it is"
+            );
+            raw_port(port).map_err(|raw| format!("{port}: {e}; {raw}"))
+        }
+    }
+}
+
+/// A character device used as it is (no line settings), non-blocking.
+#[cfg(unix)]
+fn raw_port(port: &str) -> Result<Box<dyn Stream>, String> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY)
+        .open(port)
         .map_err(|e| format!("{port}: {e}"))?;
-    Ok(Box::new(p))
+    Ok(Box::new(RawPort(f)))
+}
+
+#[cfg(not(unix))]
+fn raw_port(port: &str) -> Result<Box<dyn Stream>, String> {
+    Err(format!("{port}: the line settings were refused"))
+}
+
+/// A non-blocking character device: a read of nothing is `WouldBlock` (which the link
+/// client takes as "nothing yet"); a write waits until the device takes the bytes.
+struct RawPort(std::fs::File);
+
+impl Read for RawPort {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl Write for RawPort {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        loop {
+            match self.0.write(buf) {
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    std::thread::sleep(Duration::from_micros(100))
+                }
+                r => return r,
+            }
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
 }
 
 /// What a print produced.
@@ -60,6 +123,25 @@ pub struct PrintReport {
     pub layers: Vec<LayerTelemetry>,
     /// Frames the host sent again.
     pub retransmitted: u32,
+    /// Bytes the upload of the slice wrote (retransmissions and acks included).
+    pub upload_bytes: u64,
+    /// Messages of the slice's upload.
+    pub upload_messages: usize,
+    /// How the controller's previous job stopped, as it said after the hello.
+    pub last_stop: Option<StopReport>,
+}
+
+/// A stop report as JSON.
+pub fn stop_value(r: &StopReport) -> Value {
+    json!({
+        "fault": format!("{:?}", r.fault),
+        "layer": r.layer,
+        "at_us": r.at_us,
+        "heard_us": r.heard_us,
+        "silent_us": r.silent_us(),
+        "watchdog_us": r.watchdog_us,
+        "steps": {"x": r.steps[0], "y": r.steps[1], "z": r.steps[2]},
+    })
 }
 
 impl PrintReport {
@@ -69,6 +151,9 @@ impl PrintReport {
             "digest": format!("{:016x}", self.digest),
             "layers": self.layers.iter().map(|t| telemetry_value(t, channels)).collect::<Vec<_>>(),
             "retransmitted": self.retransmitted,
+            "upload_bytes": self.upload_bytes,
+            "upload_messages": self.upload_messages,
+            "last_stop": self.last_stop.as_ref().map(stop_value),
         })
     }
 }
@@ -78,18 +163,58 @@ impl PrintReport {
 pub enum PrintError {
     /// The link or the controller refused.
     Client(ClientError),
-    /// Ctrl-C: the job was aborted.
-    Interrupted,
-    /// The job ended other than done (its last phase).
-    Ended(Phase),
+    /// Ctrl-C: the job was aborted (how the controller said it stopped), or never started.
+    Interrupted {
+        /// The job's last phase (`None`: it had not started).
+        phase: Option<Phase>,
+        /// The controller's report of the stop.
+        stop: Option<StopReport>,
+    },
+    /// The job ended other than done: its last phase, the controller's error and report.
+    Ended {
+        /// The last phase.
+        phase: Phase,
+        /// The controller's error.
+        error: Option<RemoteError>,
+        /// The controller's report of the stop.
+        stop: Option<StopReport>,
+    },
 }
 
 impl std::fmt::Display for PrintError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             PrintError::Client(e) => e.fmt(f),
-            PrintError::Interrupted => write!(f, "interrupted: the job was aborted"),
-            PrintError::Ended(p) => write!(f, "the job ended {p:?}"),
+            PrintError::Interrupted { phase: None, .. } => {
+                write!(f, "interrupted (Ctrl-C) before the job started")
+            }
+            PrintError::Interrupted {
+                phase: Some(Phase::Done),
+                ..
+            } => write!(f, "interrupted (Ctrl-C): the job had already ended"),
+            PrintError::Interrupted {
+                phase: Some(p),
+                stop,
+            } => {
+                write!(
+                    f,
+                    "interrupted (Ctrl-C): the controller ended the job {p:?}"
+                )?;
+                match stop {
+                    Some(r) => write!(f, ": {r}"),
+                    None => Ok(()),
+                }
+            }
+            PrintError::Ended { phase, error, stop } => {
+                write!(f, "the job ended {phase:?}")?;
+                if let Some(e) = error {
+                    write!(f, ": {e}")?;
+                }
+                match stop {
+                    Some(r) => write!(f, "; {r}"),
+                    None => Ok(()),
+                }
+            }
         }
     }
 }
@@ -100,10 +225,21 @@ impl From<ClientError> for PrintError {
     }
 }
 
-/// Prints `slice` in `layers` layers on the controller at the end of `stream`.
+/// What `print` sends: a validated slice, or a file's contours as they are (`--no-check`).
+#[derive(Clone, Copy, Debug)]
+pub enum Job<'a> {
+    /// A slice the host validated.
+    Slice(&'a Slice),
+    /// Contours the controller alone validates.
+    Unchecked(&'a Contours),
+}
+
+/// Prints `job` in `layers` layers on the controller at the end of `stream`. On Ctrl-C
+/// (`interrupted`) during the job it sends an abort, waits for the controller to confirm
+/// the stop (valves shut) and returns [`PrintError::Interrupted`] with its report.
 pub fn print<S: Read + Write>(
     stream: S,
-    slice: &Slice,
+    job: Job<'_>,
     printer: &PrinterConfig,
     layers: u16,
     interrupted: Arc<AtomicBool>,
@@ -115,34 +251,68 @@ pub fn print<S: Read + Write>(
         fw.major, fw.minor, fw.patch, caps.max_holes, caps.max_points
     );
     client.send_printer(printer)?;
-    let up = client.upload(slice, layers)?;
+    let up = match job {
+        Job::Slice(slice) => client.upload(slice, layers)?,
+        Job::Unchecked(c) => client.upload_contours(c, layers)?,
+    };
     eprintln!(
-        "slice accepted: {} holes, {} vertices ({} bytes in {} messages)",
-        up.holes, up.vertices, up.bytes, up.messages
+        "slice accepted: {} holes, {} vertices ({} bytes in {} messages, {} frames retransmitted so far)",
+        up.holes,
+        up.vertices,
+        up.bytes,
+        up.messages,
+        client.stats().retransmissions
     );
     let bar = ProgressBar::with_draw_target(Some(100), ProgressDrawTarget::stderr());
-    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+    let hidden = !std::io::IsTerminal::is_terminal(&std::io::stderr());
+    if hidden {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos:>3}% {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    // A hidden bar prints nothing: then the lines go to stderr as they are.
+    let say = |line: String| {
+        if hidden {
+            eprintln!("{line}");
+        } else {
+            bar.println(line);
+        }
+    };
     let mut digest = None;
     let mut telemetry = Vec::new();
     let mut started = false;
+    let mut aborting: Option<Instant> = None;
+    let mut last_stop = None;
+    let mut stop = None;
+    let mut error = None;
     let mut last = Instant::now();
     loop {
-        if interrupted.load(Ordering::Relaxed) {
-            let _ = client.abort();
-            bar.abandon_with_message("aborted");
-            return Err(PrintError::Interrupted);
+        if interrupted.load(Ordering::Relaxed) && aborting.is_none() {
+            if !started {
+                bar.abandon();
+                return Err(PrintError::Interrupted {
+                    phase: None,
+                    stop: None,
+                });
+            }
+            say("Ctrl-C: aborting the job (the controller shuts the valves)".into());
+            client.send(&HostMsg::Abort)?;
+            aborting = Some(Instant::now());
+        }
+        if aborting.is_some_and(|t| t.elapsed() > ABORT_WAIT) {
+            bar.abandon();
+            return Err(ClientError::Timeout {
+                waiting_for: "confirmation of the abort",
+            }
+            .into());
         }
         if digest.is_some() && !started {
             client.start()?;
             started = true;
         }
-        let Some(m) = client.next_message(Duration::from_millis(50))? else {
+        let Some(m) = client.next_message(Duration::from_millis(20))? else {
             if last.elapsed() > SILENCE {
                 return Err(ClientError::Timeout {
                     waiting_for: "status",
@@ -154,11 +324,11 @@ pub fn print<S: Read + Write>(
         last = Instant::now();
         match m {
             CtrlMsg::Telemetry(Telemetry::Plan { digest: d }) => {
-                bar.println(format!("plan {d:016x}"));
+                say(format!("plan {d:016x}"));
                 digest = Some(d);
             }
             CtrlMsg::Telemetry(Telemetry::Layer(t)) => {
-                bar.println(format!(
+                say(format!(
                     "layer {}: steps {:?}, valve openings {:?}, {:.1} s",
                     t.layer,
                     t.steps,
@@ -167,17 +337,44 @@ pub fn print<S: Read + Write>(
                 ));
                 telemetry.push(t);
             }
+            CtrlMsg::Stopped(r) if !started => {
+                say(format!("the controller's last job {r}"));
+                last_stop = Some(r);
+            }
+            CtrlMsg::Stopped(r) => {
+                say(format!("the controller: the job {r}"));
+                stop = Some(r);
+            }
             CtrlMsg::Status(s) => {
                 bar.set_position(s.percent.into());
-                bar.set_message(format!("{:?} layer {}/{}", s.phase, s.layer, s.layers));
+                let phase = format!("{:?} layer {}/{}", s.phase, s.layer, s.layers);
+                if hidden && started {
+                    say(phase.clone());
+                }
+                bar.set_message(phase);
                 match s.phase {
-                    Phase::Done if started => break,
-                    Phase::Aborted | Phase::Failed if started => {
+                    Phase::Done if started && aborting.is_none() => break,
+                    Phase::Done | Phase::Aborted | Phase::Failed if started => {
                         bar.abandon();
-                        return Err(PrintError::Ended(s.phase));
+                        if aborting.is_some() {
+                            return Err(PrintError::Interrupted {
+                                phase: Some(s.phase),
+                                stop,
+                            });
+                        }
+                        return Err(PrintError::Ended {
+                            phase: s.phase,
+                            error,
+                            stop,
+                        });
                     }
                     _ => {}
                 }
+            }
+            CtrlMsg::Error(e) if started => {
+                // The stop's report and final status follow.
+                say(format!("the controller: {e}"));
+                error = Some(e);
             }
             CtrlMsg::Error(e) => {
                 bar.abandon();
@@ -191,5 +388,8 @@ pub fn print<S: Read + Write>(
         digest: digest.unwrap_or(0),
         layers: telemetry,
         retransmitted: client.stats().retransmissions,
+        upload_bytes: up.bytes,
+        upload_messages: up.messages,
+        last_stop,
     })
 }

@@ -82,15 +82,18 @@ pub fn load(path: &Path) -> Result<SliceFile, SliceFileError> {
 
 /// Reads and validates a slice file of at most `limit` bytes, reading no more than that.
 pub fn load_with_limit(path: &Path, limit: u64) -> Result<SliceFile, SliceFileError> {
+    parse(&read(path, limit)?)
+}
+
+fn read(path: &Path, limit: u64) -> Result<String, SliceFileError> {
     let shown = path.display().to_string();
-    let text = json_file::read_text(path, limit).map_err(|e| match e {
+    json_file::read_text(path, limit).map_err(|e| match e {
         ReadError::Io(e) => SliceFileError::Io(shown.clone(), e),
         ReadError::TooLarge(limit) => SliceFileError::TooLarge(shown.clone(), limit),
         ReadError::NotUtf8(at) => SliceFileError::Format(format!(
             "slice file {shown} is not UTF-8 text (invalid byte at offset {at})"
         )),
-    })?;
-    parse(&text)
+    })
 }
 
 const TOP_KEYS: &[&str] = &["name", "description", "units", "outer", "holes", "settings"];
@@ -144,8 +147,45 @@ fn required<'a>(
         .ok_or_else(|| format_err(format!("missing key \"{key}\" {where_}")))
 }
 
+/// A slice file's contours as written, before the core validated them (`hollowpath print
+/// --no-check` sends them so, for the controller's own verdict).
+#[derive(Clone, Debug)]
+pub struct Contours {
+    /// `name` from the file (or empty).
+    pub name: String,
+    /// The wall's points and material.
+    pub wall: (Vec<Point>, Material),
+    /// Each hole's points and material.
+    pub holes: Vec<(Vec<Point>, Material)>,
+    /// The settings.
+    pub settings: Settings,
+}
+
+impl Contours {
+    /// The holes as the core's [`Slice::from_contours`] and the link's upload take them.
+    pub fn hole_refs(&self) -> Vec<(&[Point], Material)> {
+        self.holes.iter().map(|(p, m)| (&p[..], *m)).collect()
+    }
+}
+
 /// Parses and validates slice JSON (a UTF-8 byte-order mark at the start is ignored).
 pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
+    let c = parse_contours(text)?;
+    // Contours of more than SIMPLIFY_ABOVE_VERTICES vertices are simplified in the core.
+    let slice = Slice::from_contours(&c.wall.0, c.wall.1, &c.hole_refs(), c.settings)?;
+    Ok(SliceFile {
+        name: c.name,
+        slice,
+    })
+}
+
+/// Reads a slice file's contours (at most [`MAX_FILE_BYTES`]) without validating the slice.
+pub fn load_contours(path: &Path) -> Result<Contours, SliceFileError> {
+    parse_contours(&read(path, MAX_FILE_BYTES)?)
+}
+
+/// Parses slice JSON into its contours and settings: the format checked, the slice not.
+pub fn parse_contours(text: &str) -> Result<Contours, SliceFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let doc: Value = serde_json::from_str(text).map_err(SliceFileError::Json)?;
     let top = object(&doc, "a slice file", "at the top level", TOP_KEYS)?;
@@ -191,12 +231,11 @@ pub fn parse(text: &str) -> Result<SliceFile, SliceFileError> {
         }
         features.push(feature(id, h)?);
     }
-    let refs: Vec<(&[Point], Material)> = features.iter().map(|(p, m)| (&p[..], *m)).collect();
-    // Contours of more than SIMPLIFY_ABOVE_VERTICES vertices are simplified in the core.
-    let slice = Slice::from_contours(&wall.0, wall.1, &refs, settings)?;
-    Ok(SliceFile {
+    Ok(Contours {
         name: name.unwrap_or_default(),
-        slice,
+        wall,
+        holes: features,
+        settings,
     })
 }
 

@@ -407,12 +407,22 @@ fn a_silent_host_has_the_valves_closed_and_hears_why_on_reconnection() {
         client.hello().unwrap();
         let mut heard = None;
         while let Some(m) = client.next_message(Duration::from_secs(2)).unwrap() {
-            if let CtrlMsg::Error(e) = m {
-                heard = Some(e);
+            if let CtrlMsg::Stopped(r) = m {
+                heard = Some(r);
                 break;
             }
         }
-        assert_eq!(heard, Some(RemoteError::Machine(Fault::HostSilent)));
+        let heard = heard.expect("no stop report after the hello");
+        assert_eq!(heard.fault, Fault::HostSilent);
+        // Stopped within the watchdog's time of the last frame (the link is served every
+        // half millisecond while the machine steps).
+        let silent = heard.silent_us().unwrap();
+        assert_eq!(heard.watchdog_us, CTRL.watchdog_us);
+        assert!(
+            silent > CTRL.watchdog_us && silent < CTRL.watchdog_us + 500_000,
+            "{heard:?}"
+        );
+        assert!(heard.steps[0] > 0, "{heard:?}");
         stop.store(true, Ordering::Relaxed);
         let out = app.join().unwrap();
         assert_eq!(out.state, Some(State::Stopped(Fault::HostSilent)));

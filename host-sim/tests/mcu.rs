@@ -4,105 +4,24 @@
 //! Needs `qemu-system-arm` (CI installs it) and the `thumbv7em-none-eabihf` target (from
 //! `rust-toolchain.toml`). Without QEMU the test is skipped locally but fails under CI.
 
-use std::io::Read;
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+mod common;
 
-fn workspace() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use std::time::Duration;
 
-fn qemu_available() -> bool {
-    Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
+use common::qemu::{self, Clock, Qemu, Serial};
 
 #[test]
 fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
-    if !qemu_available() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "qemu-system-arm is missing under CI"
-        );
-        eprintln!("note: qemu-system-arm not found; MCU comparison skipped");
+    if !qemu::available("MCU comparison") {
         return;
     }
-    let ws = workspace();
-    let target_dir = ws.join("target/firmware");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let build = Command::new(cargo)
-        .current_dir(&ws)
-        .args([
-            "build",
-            "-p",
-            "hollowpath-qemu",
-            "--release",
-            "--target",
-            "thumbv7em-none-eabihf",
-            "--target-dir",
-        ])
-        .arg(&target_dir)
-        .env_remove("RUSTFLAGS")
-        .output()
-        .unwrap();
-    assert!(
-        build.status.success(),
-        "firmware build failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
-    );
-    let elf = target_dir.join("thumbv7em-none-eabihf/release/hollowpath-qemu");
-
-    let mut child = Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            "mps2-an386",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-icount",
-            "shift=0",
-            "-kernel",
-        ])
-        .arg(&elf)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(600);
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("the firmware did not finish within 600 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let mut out = String::new();
-    child
-        .stdout
-        .take()
-        .unwrap()
-        .read_to_string(&mut out)
-        .unwrap();
-    let mut err = String::new();
-    child
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let _one = qemu::lock();
+    let elf = qemu::firmware(None);
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q
+        .wait_exit(Duration::from_secs(600))
+        .unwrap_or_else(|| panic!("the firmware did not finish within 600 s"));
+    let (out, err) = (q.stdout(), q.stderr());
     println!("{out}");
     assert!(status.success(), "firmware failed:\n{out}\n{err}");
     assert!(out.contains("verify ok"), "{out}");

@@ -21,7 +21,10 @@
 //!   block boundary (valves shut), `Resume` continues, `Abort` shuts down. Host silence
 //!   past the link's watchdog shuts the machine down at once ([`Fault::HostSilent`]: valves
 //!   first, then motion) and the reason is reported when a host greets the controller again.
-//!   Every fault goes through [`Machine::shutdown`], valves first.
+//!   Every fault goes through [`Machine::shutdown`], valves first. A job that stops early
+//!   sends a [`StopReport`] (the fault, the layer, the controller's clock at the stop and
+//!   when the host was last heard, the steps driven) after its error, and again after the
+//!   hello of every host that greets the controller until the next job starts.
 //!
 //! [`App::poll`] serves the link and returns the link's next deadline (smoltcp style); a job
 //! runs inside the `poll` that received its `Start`, serving the link itself while it
@@ -37,7 +40,7 @@ pub mod session;
 
 use crate::link::controller::{Controller, Event};
 use crate::link::error::LinkError;
-use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, Telemetry};
+use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry};
 use crate::motion::machine::Fault;
 use crate::motion::{Board, Machine, State};
 use crate::toolpath::offset::OffsetSpiral;
@@ -154,6 +157,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             }
         };
         let tick_hz = machine.config().tick_hz;
+        self.session.report_on_hello = None;
         let mut run = Run {
             session: &mut self.session,
             io,
@@ -162,6 +166,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             deadline: None,
             served: 0,
             pause_reported: false,
+            stopped: None,
         };
         run.session.report(Phase::Homing, 0, layers, 0);
         let mut result = job::home(machine, &mut run);
@@ -208,10 +213,20 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                     LayerError::Path(err) => RemoteError::Slice(err),
                     _ => RemoteError::Machine(fault),
                 };
-                if fault == Fault::HostSilent {
-                    session.report_on_hello = Some(why);
-                }
+                let (at_us, heard_us) = run
+                    .stopped
+                    .unwrap_or_else(|| (run.io.now_us(), session.ctrl.last_heard()));
+                let stop = StopReport {
+                    fault,
+                    layer,
+                    at_us,
+                    heard_us,
+                    watchdog_us: session.ctrl.link_config().watchdog_us,
+                    steps: machine.counters().steps,
+                };
+                session.report_on_hello = Some(stop);
                 session.send(CtrlMsg::Error(why));
+                session.send(CtrlMsg::Stopped(stop));
                 session.report(phase, layer, layers, percent);
             }
         }
@@ -230,6 +245,9 @@ struct Run<'a, I, B, const HOLES: usize, const POINTS: usize, const W: usize> {
     /// When the link was served last (microseconds).
     served: u64,
     pause_reported: bool,
+    /// When the machine was stopped from the link (abort, host silence), and when the
+    /// host was last heard then.
+    stopped: Option<(u64, Option<u64>)>,
 }
 
 impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
@@ -252,7 +270,10 @@ impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
                             .report(Phase::Printing, s.layer, s.layers, s.percent);
                     }
                 }
-                Event::Abort => machine.abort(self.board),
+                Event::Abort => {
+                    machine.abort(self.board);
+                    self.stop_at(now);
+                }
                 Event::Start => self.session.send(CtrlMsg::Error(RemoteError::Link(
                     LinkError::UnexpectedMessage,
                 ))),
@@ -261,10 +282,19 @@ impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
                 Event::SliceReady | Event::Hello | Event::Printer | Event::Refused(_) => {}
             }
         }
-        if self.session.ctrl.is_lost(self.io.now_us()) {
+        let now = self.io.now_us();
+        if self.session.ctrl.is_lost(now) {
             machine.shutdown(self.board, Fault::HostSilent);
+            self.stop_at(now);
         }
         self.session.flush(self.io)
+    }
+
+    /// Notes the first stop's time and the host's last frame before it.
+    fn stop_at(&mut self, now: u64) {
+        if self.stopped.is_none() {
+            self.stopped = Some((now, self.session.ctrl.last_heard()));
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 use heapless::Deque;
 
 use crate::link::controller::{Controller, Event};
-use crate::link::message::{CtrlMsg, Phase, RemoteError, Status};
+use crate::link::message::{CtrlMsg, Phase, Status, StopReport};
 
 use super::io::Io;
 
@@ -26,8 +26,9 @@ pub struct Session<const HOLES: usize, const POINTS: usize, const W: usize> {
     pub dropped: u32,
     /// The job's status as last reported.
     pub status: Status,
-    /// A fault to report when a host greets us next (the host went silent mid-job).
-    pub report_on_hello: Option<RemoteError>,
+    /// How the last job stopped, told to every host that greets us until the next job
+    /// starts.
+    pub report_on_hello: Option<StopReport>,
 }
 
 impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POINTS, W> {
@@ -67,8 +68,8 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POI
             self.rx_start += consumed;
             if let Some(e) = event {
                 if e == Event::Hello {
-                    if let Some(r) = self.report_on_hello.take() {
-                        self.send(CtrlMsg::Error(r));
+                    if let Some(r) = self.report_on_hello {
+                        self.send(CtrlMsg::Stopped(r));
                     }
                 }
                 return Some(e);
@@ -93,8 +94,10 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POI
                     let n = self.outbox.len();
                     for i in 0..n {
                         if let Some(m) = self.outbox.pop_front() {
-                            if i != k {
-                                let _ = self.outbox.push_back(m);
+                            // Back into the room it was taken from: cannot fail (counted
+                            // if it ever did).
+                            if i != k && self.outbox.push_back(m).is_err() {
+                                self.dropped += 1;
                             }
                         }
                     }
@@ -106,7 +109,10 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POI
                 }
             }
         }
-        let _ = self.outbox.push_back(msg);
+        // Room was made above: cannot fail (counted if it ever did).
+        if self.outbox.push_back(msg).is_err() {
+            self.dropped += 1;
+        }
     }
 
     /// Reports a status (phase, layer, percent).

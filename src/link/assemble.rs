@@ -242,8 +242,12 @@ impl<const HOLES: usize, const POINTS: usize> SliceAssembler<HOLES, POINTS> {
         let pts = |s: &Span| &self.points[s.start..s.start + s.declared];
         let mut holes: Vec<(&[Point], Material), HOLES> = Vec::new();
         for s in self.features.iter() {
-            // Cannot fail: one per span, of the same capacity.
-            let _ = holes.push((pts(s), s.material));
+            // One per span, of the same capacity: cannot fail.
+            if holes.push((pts(s), s.material)).is_err() {
+                return Some(Err(Error::TooManyHoles {
+                    holes: self.features.len() as u32,
+                }));
+            }
         }
         Some(Slice::from_contours(
             pts(&wall),

@@ -7,7 +7,8 @@ use super::assemble::SliceAssembler;
 use super::endpoint::{Link, LinkConfig, LinkStats};
 use super::error::LinkError;
 use super::message::{
-    check_protocol, Capacities, CtrlMsg, HostMsg, RemoteError, Version, PROTOCOL_VERSION,
+    check_protocol, Capacities, CtrlMsg, HostMsg, PrinterChunk, RemoteError, Version,
+    PRINTER_BYTES, PROTOCOL_VERSION,
 };
 use crate::config::{CHANNELS, MAX_HOLES, MAX_VERTICES};
 use crate::motion::config::PrinterConfig;
@@ -73,6 +74,10 @@ pub struct Controller<const HOLES: usize, const POINTS: usize, const W: usize> {
     firmware: Version,
     greeted: bool,
     printer: Option<PrinterConfig>,
+    /// The printer configuration's encoding as its chunks arrive.
+    printer_bytes: [u8; PRINTER_BYTES],
+    /// Bytes of it received (`None`: a chunk was refused; wait for one at offset 0).
+    printer_len: Option<usize>,
     accepted: bool,
     /// A whole slice waits for `finish_slice`: nothing more is taken before.
     slice_pending: bool,
@@ -91,6 +96,8 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             firmware,
             greeted: false,
             printer: None,
+            printer_bytes: [0; PRINTER_BYTES],
+            printer_len: Some(0),
             accepted: false,
             slice_pending: false,
             replies: Deque::new(),
@@ -122,6 +129,16 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
     /// The link's counters.
     pub fn stats(&self) -> LinkStats {
         self.link.stats()
+    }
+
+    /// The link's timers.
+    pub fn link_config(&self) -> LinkConfig {
+        self.link.config()
+    }
+
+    /// When a valid frame last arrived (`None`: none since the session opened).
+    pub fn last_heard(&self) -> Option<u64> {
+        self.link.last_heard()
     }
 
     /// Replies dropped because [`REPLIES`] were already waiting: always 0, as
@@ -209,13 +226,17 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
         let linked = |r: Result<(), LinkError>| r.err().map(RemoteError::Link);
         let refused = match msg {
             HostMsg::Hello { .. } => None,
-            HostMsg::Printer(cfg) => match cfg.validate() {
-                Ok(()) => {
-                    self.printer = Some(cfg);
-                    self.reply(CtrlMsg::PrinterAccepted);
-                    return Some(Event::Printer);
-                }
-                Err(e) => Some(RemoteError::Printer(e.into())),
+            HostMsg::Printer(chunk) => match self.printer_chunk(&chunk) {
+                Ok(None) => None,
+                Ok(Some(cfg)) => match cfg.validate() {
+                    Ok(()) => {
+                        self.printer = Some(cfg);
+                        self.reply(CtrlMsg::PrinterAccepted);
+                        return Some(Event::Printer);
+                    }
+                    Err(e) => Some(RemoteError::Printer(e.into())),
+                },
+                Err(e) => Some(RemoteError::Link(e)),
             },
             HostMsg::Job { settings, layers } => {
                 self.accepted = false;
@@ -243,6 +264,38 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             HostMsg::Abort => return Some(Event::Abort),
         };
         refused.and_then(|e| self.refuse(e))
+    }
+
+    /// Takes a chunk of the printer configuration; the configuration once its last chunk
+    /// arrived. A chunk at offset 0 starts a new one; a chunk out of place is refused, and so
+    /// are the chunks after it up to the next offset 0 (silently: one refusal is reported).
+    fn printer_chunk(&mut self, c: &PrinterChunk) -> Result<Option<PrinterConfig>, LinkError> {
+        if c.offset == 0 {
+            self.printer_len = Some(0);
+        }
+        let Some(len) = self.printer_len else {
+            return Ok(None);
+        };
+        let (offset, total) = (usize::from(c.offset), usize::from(c.total));
+        let end = offset + c.data.len();
+        if offset != len || total > PRINTER_BYTES || end > total || c.data.is_empty() {
+            self.printer_len = None;
+            return Err(LinkError::PrinterChunk {
+                // `len <= PRINTER_BYTES <= u16::MAX` (asserted in `message`).
+                expected: len as u16,
+                got: c.offset,
+                total: c.total,
+            });
+        }
+        self.printer_bytes[offset..end].copy_from_slice(&c.data);
+        if end < total {
+            self.printer_len = Some(end);
+            return Ok(None);
+        }
+        self.printer_len = Some(0);
+        postcard::from_bytes::<PrinterConfig>(&self.printer_bytes[..total])
+            .map(Some)
+            .map_err(|_| LinkError::MessageDecode)
     }
 
     /// Builds and validates the slice after [`Event::SliceReady`] (and checks it against the

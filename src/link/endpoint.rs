@@ -320,6 +320,11 @@ impl<Out: Serialize, In: DeserializeOwned, const W: usize> Link<Out, In, W> {
         Some(&self.out[..n])
     }
 
+    /// When a valid frame last arrived (`None`: none since the session was reset).
+    pub fn last_heard(&self) -> Option<u64> {
+        self.watchdog.last()
+    }
+
     /// Whether no valid frame arrived within the watchdog's time before `now` (after one
     /// first did).
     pub fn is_lost(&self, now: u64) -> bool {

@@ -66,6 +66,17 @@ pub enum LinkError {
         /// The chunk's first vertex index.
         got: u32,
     },
+    /// A chunk of the printer configuration does not continue it where the last one ended
+    /// (or runs past its declared length, or past
+    /// [`PRINTER_BYTES`](super::message::PRINTER_BYTES)).
+    PrinterChunk {
+        /// The offset expected next.
+        expected: u16,
+        /// The chunk's offset.
+        got: u16,
+        /// The length it declared.
+        total: u16,
+    },
     /// A contour chunk's bytes are not a whole number of zigzag-varint vertices.
     ContourData {
         /// The feature.
@@ -141,6 +152,14 @@ impl fmt::Display for LinkError {
             } => write!(
                 f,
                 "link: {feature}: a contour chunk starts at vertex {got}, expected {expected}"
+            ),
+            LinkError::PrinterChunk {
+                expected,
+                got,
+                total,
+            } => write!(
+                f,
+                "link: a printer configuration chunk at byte {got} of {total}, expected byte {expected}"
             ),
             LinkError::ContourData { feature } => {
                 write!(f, "link: {feature}: a contour chunk's bytes are malformed")

@@ -7,7 +7,14 @@
 //!
 //! A slice goes up as: [`HostMsg::Job`] (settings and layer count), then for the wall and
 //! each hole in order a [`HostMsg::Feature`] (material and vertex count) followed by its
-//! [`HostMsg::Contour`] chunks, then [`HostMsg::EndSlice`].
+//! [`HostMsg::Contour`] chunks, then [`HostMsg::EndSlice`]. The printer configuration goes up
+//! as [`HostMsg::Printer`] chunks of its postcard encoding.
+//!
+//! Every host message fits in a small frame (at most [`SMALL_PAYLOAD`] bytes of payload:
+//! asserted for the chunks, tested for the rest; the controller's are as small but for a
+//! layer's telemetry, up to 90 bytes): on a line that spoils one byte in a hundred, a frame of `n` bytes arrives
+//! whole with probability 0.99^n, about a half for a contour chunk, not 1 in 90 as for the
+//! 450-byte chunks of protocol version 1.
 
 use core::fmt;
 
@@ -18,14 +25,29 @@ use super::error::LinkError;
 use super::wire::WirePrinterError;
 use crate::config::CHANNELS;
 use crate::error::{Error, FeatureId};
-use crate::motion::config::{PrinterConfig, AXES};
+use crate::motion::config::AXES;
 use crate::motion::machine::Fault;
 use crate::slice::{Material, Settings};
 
-/// The protocol version; peers of different versions refuse each other.
-pub const PROTOCOL_VERSION: u16 = 1;
-/// Bytes of zigzag-varint vertices in one [`ContourChunk`].
-pub const CHUNK_BYTES: usize = 448;
+/// The protocol version; peers of different versions refuse each other (2: small contour
+/// chunks, the printer configuration in chunks, [`CtrlMsg::Stopped`]).
+pub const PROTOCOL_VERSION: u16 = 2;
+/// Bytes of zigzag-varint vertices in one [`ContourChunk`] (and of encoded printer
+/// configuration in one [`PrinterChunk`]).
+pub const CHUNK_BYTES: usize = 64;
+/// The most payload bytes a message of either direction takes: a chunk message's header
+/// (variant, feature or offsets: at most 1 + 2 + 5 varint bytes) and length prefix (2
+/// bytes) around [`CHUNK_BYTES`].
+pub const SMALL_PAYLOAD: usize = CHUNK_BYTES + 10;
+/// The most bytes of a printer configuration's postcard encoding ([`PrinterChunk`]s carry
+/// at most this many).
+pub const PRINTER_BYTES: usize = 512;
+
+// A chunk message fits a frame with room to spare, and a chunk holds at least one vertex
+// (two varints of at most `contour::MAX_VARINT` bytes, asserted in `contour`).
+const _: () = assert!(SMALL_PAYLOAD <= super::frame::MAX_PAYLOAD);
+// The chunks' offsets are `u16`; the length prefix of `CHUNK_BYTES` takes at most 2 bytes.
+const _: () = assert!(PRINTER_BYTES <= u16::MAX as usize && CHUNK_BYTES < 1 << 14);
 
 /// Refuses a peer's protocol version other than ours.
 pub fn check_protocol(theirs: u16) -> Result<(), LinkError> {
@@ -77,6 +99,70 @@ pub struct ContourChunk {
     pub data: Vec<u8, CHUNK_BYTES>,
 }
 
+/// A run of the printer configuration's postcard encoding: `total` bytes in all, this
+/// chunk's `data` from byte `offset`. The controller decodes and validates the configuration
+/// when the chunk that ends it arrived.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PrinterChunk {
+    /// Offset of `data` in the encoding.
+    pub offset: u16,
+    /// Length of the whole encoding (at most [`PRINTER_BYTES`]).
+    pub total: u16,
+    /// The bytes.
+    pub data: Vec<u8, CHUNK_BYTES>,
+}
+
+/// Why and when a job stopped before its end: sent with the fault when it happens, and
+/// again after the hello of the next host to greet the controller (until a job starts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StopReport {
+    /// Why the machine stopped.
+    pub fault: Fault,
+    /// The layer it stopped in (from 0).
+    pub layer: u16,
+    /// The controller's clock at the stop (its link clock, microseconds since it started).
+    pub at_us: u64,
+    /// The controller's clock when it last received a valid frame before the stop (`None`:
+    /// never in this session).
+    pub heard_us: Option<u64>,
+    /// The link's watchdog time (microseconds; 0: none).
+    pub watchdog_us: u64,
+    /// Steps per axis the job had driven when it stopped (they stay so).
+    pub steps: [u64; AXES],
+}
+
+impl StopReport {
+    /// How long the host had been silent at the stop (microseconds).
+    pub fn silent_us(&self) -> Option<u64> {
+        self.heard_us.map(|h| self.at_us.saturating_sub(h))
+    }
+}
+
+impl fmt::Display for StopReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "stopped ({:?}) in layer {} at {:.3} s of the controller's clock",
+            self.fault,
+            self.layer,
+            self.at_us as f64 / 1e6
+        )?;
+        if let (Fault::HostSilent, Some(s)) = (self.fault, self.silent_us()) {
+            write!(
+                f,
+                ", {:.3} s after the host was last heard (watchdog {:.3} s)",
+                s as f64 / 1e6,
+                self.watchdog_us as f64 / 1e6
+            )?;
+        }
+        write!(
+            f,
+            "; valves shut, motion stopped at steps x {} y {} z {}",
+            self.steps[0], self.steps[1], self.steps[2]
+        )
+    }
+}
+
 /// Host to controller.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum HostMsg {
@@ -85,8 +171,10 @@ pub enum HostMsg {
         /// [`PROTOCOL_VERSION`] of the host.
         protocol: u16,
     },
-    /// The printer to drive (validated by the controller).
-    Printer(PrinterConfig),
+    /// A chunk of the printer to drive
+    /// ([`PrinterConfig`](crate::motion::config::PrinterConfig), postcard-encoded; validated by
+    /// the controller once whole).
+    Printer(PrinterChunk),
     /// Starts a slice upload: its settings and the number of layers to print.
     Job {
         /// The slice's settings.
@@ -248,4 +336,7 @@ pub enum CtrlMsg {
     Telemetry(Telemetry),
     /// A refusal or a fault.
     Error(RemoteError),
+    /// A job stopped before its end (after its [`CtrlMsg::Error`]), or, after a hello, the
+    /// last job did.
+    Stopped(StopReport),
 }

@@ -39,6 +39,11 @@ impl Watchdog {
         self.last = None;
     }
 
+    /// When a valid frame last arrived (`None`: not since it was armed).
+    pub fn last(&self) -> Option<u64> {
+        self.last
+    }
+
     /// When it expires if nothing arrives (`None`: not armed, or no timeout).
     pub fn deadline(&self) -> Option<u64> {
         match (self.timeout, self.last) {

@@ -1,6 +1,8 @@
 //! Shared helpers of host-sim's tests.
 #![allow(dead_code)]
 
+pub mod qemu;
+
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::Vertex;
 use hollowpath::{Material, Slice};
