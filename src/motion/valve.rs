@@ -168,10 +168,8 @@ fn envelopes<const R: usize>(
     let mut bound = [f32::INFINITY; CHANNELS + 1];
     let step = |flow: &[f32; CHANNELS], bound: &mut [f32; CHANNELS + 1]| -> [f32; CHANNELS + 1] {
         let mut q = [0.0f32; CHANNELS + 1];
-        for c in 0..channels {
-            q[c] = flow[c];
-            q[CHANNELS] += flow[c];
-        }
+        q[..channels].copy_from_slice(&flow[..channels]);
+        q[CHANNELS] = flow[..channels].iter().sum();
         // Coming to rest, each flow bounds no lower than its share of `stop`.
         let rest = if q[CHANNELS] < stop {
             stop / q[CHANNELS]
@@ -206,10 +204,10 @@ fn envelopes<const R: usize>(
         let env = |c: usize| if q[c] > 0.0 { bound[c] } else { 0.0 };
         let total = env(CHANNELS);
         let (mut sum, mut free) = (0.0f32, 0.0f32);
-        for c in 0..channels {
+        for (c, &qc) in q.iter().enumerate().take(channels) {
             sum += env(c);
-            if q[c] > 0.0 && env(c) >= q[c] {
-                free += q[c];
+            if qc > 0.0 && env(c) >= qc {
+                free += qc;
             }
         }
         let deficit = (total - sum).max(0.0);
