@@ -418,7 +418,8 @@ impl Valves {
             // A channel about to shut shuts `lag` segments early; one about to open opens
             // `lead` segments early (the stateless command of those segments).
             let ahead = |k: usize| -> f32 {
-                let q = envelopes(current, ring, k, ch.r, ch.shed_horizon, n)[c];
+                // The road's own flow: the lead and lag are timed on it, not on its envelope.
+                let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
                 (q[1] + ch.tau * slope(q, k)).max(0.0)
             };
             if ch.lag > 0 && out[c] > 0.0 && ahead(ch.dead + ch.lag) == 0.0 {
