@@ -171,7 +171,7 @@ fn on_the_default_printer_simulated_and_planned_metrics_agree() {
 /// 0.005 and its overfill within 0.01 (measured: +0.007 on a 0.22 mm road, whose turns lie
 /// exactly a road apart, so the bead's ±2.5 % width ripple through corners already doubles
 /// raster cells along every turn). The zigzag's rebuilt coverage is measured, not yet held
-/// to 0.005 (it falls 0.001 to 0.024 short of the plan on such slices: the note).
+/// to 0.005 (it falls 0.002 to 0.024 short of the plan on such slices: the note).
 #[test]
 fn on_random_slices_the_valves_open_once_per_start_and_nothing_spills() {
     use host_sim::random_slice::{draw_many, Draw};

@@ -15,7 +15,7 @@
 //!   layer after layer on the same machine, z rising, each layer's path streamed straight
 //!   into the machine ([`job::print_layer`], the routine the host's `simulate` counts its
 //!   telemetry with), the step interrupt run at the deadlines the machine asks for. After
-//!   each layer its [`LayerTelemetry`] goes up, with a [`Status`] (phase, layer, percent)
+//!   each layer its [`LayerTelemetry`] goes up, with a [`Status`](crate::link::message::Status) (phase, layer, percent)
 //!   at each layer's start.
 //! * While printing, the link is served between step deadlines: `Pause` stops at the next
 //!   block boundary (valves shut), `Resume` continues, `Abort` shuts down. Host silence

@@ -22,7 +22,7 @@
 //! valve, so the look-ahead never brakes a depositing block faster than that into a corner
 //! ([`planner`](super::planner)'s essay). Where the flow asked for steps down faster than the
 //! valve can shed it (a road narrowing move by move towards a keep-out curve, an MCL fan
-//! closing), the command follows its *envelope* instead ([`envelope`]): the largest flow
+//! closing), the command follows its *envelope* instead (`envelopes`): the largest flow
 //! from which the valve, shut as far as it goes, still reaches every later segment's flow in
 //! time (`min over j` of `q(j) exp((t_j - t) / tau)`, over [`SHED_HORIZON_TAU`] time
 //! constants). The valve starts shedding before the step, so the bead narrows a little early
@@ -30,8 +30,9 @@
 //! where the flow never falls that fast the envelope is the flow itself. Mid-road (the road
 //! still deposits a time constant on) the command is never below [`HOLD`] of the flow asked
 //! for: where the flow still falls faster than the valve sheds it, the valve dips rather than
-//! shutting and reopening. At a road's end it shuts as early as `q + tau dq/dt` says, and a channel opens
-//! `lead_s` earlier still at a road's start and shuts `lag_s` earlier at its end.
+//! shutting and reopening. At a road's end it shuts as early as `q + tau dq/dt` says (of the
+//! road's own flow), and a channel opens `lead_s` earlier still at a road's start and shuts
+//! `lag_s` earlier at its end.
 //!
 //! **Closed.** A road that starts from rest (the first, after travel, after a pause) is
 //! preceded by a dwell as long as the largest advance, so the valves open while the nozzle
@@ -119,6 +120,20 @@ struct Channel {
 /// within it is shed in time; a deeper one is shed as far as the lag allows.
 pub const SHED_HORIZON_TAU: f32 = 3.0;
 
+/// Segment `k` ahead of `current` (0: `current` itself) in a ring given as its two slices
+/// (`Deque::as_slices`, taken once per frame), `None` past the end of what is prepared.
+fn ahead_of<'a>(
+    current: &'a Segment,
+    (front, back): (&'a [Segment], &'a [Segment]),
+    k: usize,
+) -> Option<&'a Segment> {
+    match k {
+        0 => Some(current),
+        k if k <= front.len() => front.get(k - 1),
+        k => back.get(k - 1 - front.len()),
+    }
+}
+
 /// Every channel's flow at segments `k - 1`, `k` and `k + 1` as the valves can follow it (the
 /// module's essay), over the `horizon` segments after `k + 1`.
 ///
@@ -126,9 +141,9 @@ pub const SHED_HORIZON_TAU: f32 = 3.0;
 /// sheds it (a factor `r` per segment), otherwise lowered ahead of the fall: `min over
 /// j >= i` of `q(j) / r^(j - i)`. A segment of no flow bounds nothing before it (the valve
 /// shuts there as before), and one of less than [`STOP_SHARE`] of the road's flow now (the
-/// nozzle coming to rest) bounds it only down to that share. Where a channel sheds early only because its
-/// share of the composition runs out, the road's total would fall short of what the total's
-/// own envelope allows; that deficit goes to the channels that are not shedding, in
+/// nozzle coming to rest) bounds it only down to that share. Where a channel sheds early only
+/// because its share of the composition runs out, the road's total would fall short of what
+/// the total's own envelope allows; that deficit goes to the channels that are not shedding, in
 /// proportion to their flows (a composition blends anyway; a road's width is geometry), so
 /// the bead narrows early only where the road itself narrows or slows faster than the lag.
 fn envelopes<const R: usize>(
@@ -139,14 +154,10 @@ fn envelopes<const R: usize>(
     horizon: usize,
     channels: usize,
 ) -> [[f32; 3]; CHANNELS] {
-    // Segment `j` ahead of the current one (0 past the end of what is prepared).
-    let seg = |j: usize| -> Option<&Segment> {
-        match j {
-            0 => Some(current),
-            j => ring.iter().nth(j - 1),
-        }
+    let slices = ring.as_slices();
+    let flows = |j: usize| -> [f32; CHANNELS] {
+        ahead_of(current, slices, j).map_or([0.0; CHANNELS], |s| s.flow)
     };
-    let flows = |j: usize| -> [f32; CHANNELS] { seg(j).map_or([0.0; CHANNELS], |s| s.flow) };
     let first = k.saturating_sub(1);
     let pos = [first, k, k + 1];
     let mut out = [[0.0f32; 3]; CHANNELS];
@@ -330,17 +341,11 @@ impl Valves {
         current: &Segment,
         ring: &heapless::Deque<Segment, R>,
     ) -> [f32; CHANNELS] {
-        let (front, back) = ring.as_slices();
         // Segment `k` ahead of the current one's flow in channel `c` (0 past the end of what
         // is prepared).
-        let at = |c: usize, k: usize| -> f32 {
-            let s = match k {
-                0 => Some(current),
-                k if k <= front.len() => front.get(k - 1),
-                k => back.get(k - 1 - front.len()),
-            };
-            s.map_or(0.0, |s| s.flow[c])
-        };
+        let slices = ring.as_slices();
+        let at =
+            |c: usize, k: usize| -> f32 { ahead_of(current, slices, k).map_or(0.0, |s| s.flow[c]) };
         let slope = |q: [f32; 3], k: usize| -> f32 {
             if k > 0 {
                 (q[2] - q[0]) / (2.0 * SEGMENT_S)
@@ -355,7 +360,8 @@ impl Valves {
         let mut excess = [0.0f32; 2];
         let mut free_flow = 0.0f32;
         let n = self.ch.len();
-        // The envelopes for one dead time, computed again only for a channel with another.
+        // The envelopes for one dead time and valve, computed again only for a channel with
+        // another.
         let mut env = [[0.0f32; 3]; CHANNELS];
         let mut env_k = None;
         for (c, ch) in self.ch.iter_mut().enumerate() {
@@ -363,9 +369,11 @@ impl Valves {
             // command acted for one segment.
             ch.y = ch.last + (ch.y - ch.last) * ch.r;
             let k = ch.dead;
-            if env_k != Some(k) {
+            // Channels of one dead time and one valve share their envelopes.
+            let key = (k, ch.r.to_bits(), ch.shed_horizon);
+            if env_k != Some(key) {
                 env = envelopes(current, ring, k, ch.r, ch.shed_horizon, n);
-                env_k = Some(k);
+                env_k = Some(key);
             }
             let q = env[c];
             let raw = q[1] + ch.tau * slope(q, k);
