@@ -1,6 +1,6 @@
 //! Links with cortex-m-rt's `link.x` and `firmware/memory.x` (thumb targets only; not at the
 //! workspace root, where the linker would find it before the per-binary copies), and
-//! turns the built-in slice (host-sim/data/four_holes.json) into Rust constants.
+//! turns the four reference slices (host-sim/data/*.json) into Rust constants.
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -33,11 +33,7 @@ fn main() {
         println!("cargo:rustc-link-arg=-Tlink.x");
     }
 
-    let slice_path = root.join("host-sim/data/four_holes.json");
-    println!("cargo:rerun-if-changed={}", slice_path.display());
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&slice_path).unwrap()).unwrap();
-    let mut s = String::new();
+    // The four reference slices, in the order the benchmark lines print them.
     let points = |f: &serde_json::Value| -> String {
         let pts: Vec<String> = f["points"]
             .as_array()
@@ -62,30 +58,32 @@ fn main() {
             .collect();
         format!("[{}]", m.join(", "))
     };
-    let outer = &v["outer"];
+    let mut s = String::new();
+    let mut entries = Vec::new();
+    for name in ["four_holes", "three_holes", "two_holes", "vessel_ring"] {
+        let slice_path = root.join(format!("host-sim/data/{name}.json"));
+        println!("cargo:rerun-if-changed={}", slice_path.display());
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&slice_path).unwrap()).unwrap();
+        let outer = &v["outer"];
+        let holes: Vec<String> = v["holes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|h| format!("({}, {})", points(h), material(h)))
+            .collect();
+        entries.push(format!(
+            "RefSlice {{ name: {name:?}, wall: ({}, {}), holes: &[{}], road_width: {} }}",
+            points(outer),
+            material(outer),
+            holes.join(", "),
+            f32_bits(&v["settings"]["road_width"])
+        ));
+    }
     writeln!(
         s,
-        "pub const WALL: (&[Point], [f32; 4]) = ({}, {});",
-        points(outer),
-        material(outer)
-    )
-    .unwrap();
-    let holes: Vec<String> = v["holes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|h| format!("({}, {})", points(h), material(h)))
-        .collect();
-    writeln!(
-        s,
-        "pub const HOLES: &[(&[Point], [f32; 4])] = &[{}];",
-        holes.join(", ")
-    )
-    .unwrap();
-    writeln!(
-        s,
-        "pub const ROAD_WIDTH: f32 = {};",
-        f32_bits(&v["settings"]["road_width"])
+        "pub const SLICES: &[RefSlice] = &[{}];",
+        entries.join(",\n")
     )
     .unwrap();
     std::fs::write(out.join("slice_data.rs"), s).unwrap();

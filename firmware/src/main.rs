@@ -1,9 +1,13 @@
-//! hollowpath on QEMU's mps2-an386: plans the built-in four-hole slice with the same core the
-//! host runs, checks the plan, builds its zigzag and spiral layers, and prints their digests and
-//! the instructions each step took over semihosting, then exits QEMU with the verdict.
+//! hollowpath on QEMU's mps2-an386: plans the four built-in reference slices with the same
+//! core the host runs, checks each plan, builds its zigzag and spiral layers, and prints their
+//! digests and the instructions each phase took over semihosting, then steps the first moves
+//! of four_holes' zigzag through the motion code, and exits QEMU with the verdict.
 //!
-//! The host test `host-sim/tests/mcu.rs` compares the digest with the host's: the plans must
-//! be bit-identical.
+//! The lines a script reads: `bench PHASE SLICE INSTRUCTIONS` per phase (`validate`, `plan`,
+//! `verify`, `zigzag`, `offset_spiral`) and slice, `bench lookahead|step_isr four_holes N`
+//! per move or step, and last `ram static BYTES stack BYTES` (the statics and the painted
+//! stack's peak over the whole run). The host test `host-sim/tests/mcu.rs` compares the
+//! digests with the host's: the plans must be bit-identical.
 #![no_std]
 #![no_main]
 
@@ -20,9 +24,17 @@ use static_cell::{ConstStaticCell, StaticCell};
 
 mod link_board;
 mod motion_bench;
+mod stack;
 
 mod slice_data {
     use hollowpath::geometry::Point;
+    /// A reference slice, as `build.rs` wrote it from its JSON file.
+    pub struct RefSlice {
+        pub name: &'static str,
+        pub wall: (&'static [Point], [f32; 4]),
+        pub holes: &'static [(&'static [Point], [f32; 4])],
+        pub road_width: f32,
+    }
     include!(concat!(env!("OUT_DIR"), "/slice_data.rs"));
 }
 
@@ -76,23 +88,19 @@ fn fail(what: &str, e: impl core::fmt::Debug) -> ! {
     loop {}
 }
 
-fn built_in_slice() -> Slice {
-    let wall = Feature::new(FeatureId::Wall, slice_data::WALL.0, slice_data::WALL.1)
-        .unwrap_or_else(|e| fail("wall", e));
+fn built_in_slice(r: &slice_data::RefSlice) -> Slice {
+    let wall =
+        Feature::new(FeatureId::Wall, r.wall.0, r.wall.1).unwrap_or_else(|e| fail("wall", e));
     let mut holes: hollowpath::heapless::Vec<Feature, { hollowpath::config::MAX_HOLES }> =
         hollowpath::heapless::Vec::new();
-    for (i, (pts, m)) in slice_data::HOLES.iter().enumerate() {
+    for (i, (pts, m)) in r.holes.iter().enumerate() {
         let f = Feature::new(FeatureId::Hole(i as u8), pts, *m).unwrap_or_else(|e| fail("hole", e));
         if holes.push(f).is_err() {
             fail("holes", "too many");
         }
     }
-    Slice::new(
-        wall,
-        &holes,
-        Settings::for_road_width(slice_data::ROAD_WIDTH),
-    )
-    .unwrap_or_else(|e| fail("slice", e))
+    Slice::new(wall, &holes, Settings::for_road_width(r.road_width))
+        .unwrap_or_else(|e| fail("slice", e))
 }
 
 #[entry]
@@ -106,59 +114,25 @@ fn main() -> ! {
     // The counter loads RELOAD on its first tick; count from there.
     while cortex_m::peripheral::SYST::get_current() == 0 {}
 
+    stack::paint();
     let planner = PLANNER.take();
-    let t0 = ticks();
-    let slice = built_in_slice();
-    let t1 = ticks();
-    let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
-    let t2 = ticks();
-    let verdict = hollowpath::verify::verify(&slice, plan);
-    let t3 = ticks();
-    hprintln!(
-        "mcls {} bisectors {} branch_points {}",
-        plan.mcls.len(),
-        plan.bisectors().len(),
-        plan.cells.branch_points.len()
-    );
-    hprintln!("digest {:016x}", plan.digest());
-    hprintln!(
-        "ticks validate {} plan {} verify {}",
-        t1 - t0,
-        t2 - t1,
-        t3 - t2
-    );
-    if let Err(v) = verdict {
-        fail("verify", v);
-    }
-    hprintln!("verify ok");
-
-    // The two layers of the demo, a zigzag and the offset spiral, streamed as a motion queue
-    // would take them: no path buffer, only their length and digest.
-    let mut sink = DigestSink::new();
-    let t4 = ticks();
-    zigzag(&slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
-    let t5 = ticks();
-    hprintln!(
-        "layer 0 vertices {} digest {:016x} ticks {}",
-        sink.len(),
-        sink.digest(),
-        t5 - t4
-    );
     let offset = OFFSET.take();
-    let mut sink = DigestSink::new();
-    let t6 = ticks();
-    let stats = offset
-        .build(&slice, plan, &mut sink)
-        .unwrap_or_else(|e| fail("offset spiral", e));
-    let t7 = ticks();
-    hprintln!(
-        "layer 1 vertices {} digest {:016x} ticks {} jumps {}",
-        sink.len(),
-        sink.digest(),
-        t7 - t6,
-        stats.jumps
-    );
+    for r in slice_data::SLICES {
+        bench_slice(r, planner, offset);
+    }
+    bench_motion(planner);
+    hprintln!("ram static {} stack {}", stack::statics(), stack::peak());
+    debug::exit(debug::EXIT_SUCCESS);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
 
+/// Streams four_holes' zigzag into the motion controller and steps it against counting pins
+/// (its first `motion_bench::MOVES` moves).
+#[inline(never)]
+fn bench_motion(planner: &mut Planner) {
+    let slice = built_in_slice(&slice_data::SLICES[0]);
+    let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
     // The zigzag layer again, streamed into the motion controller and stepped against
     // counting pins (its first `motion_bench::MOVES` moves).
     let cfg = motion_bench::printer();
@@ -203,9 +177,63 @@ fn main() -> ! {
         "bench step_isr four_holes {}",
         (f.alarm_ticks - homed.alarm_ticks) * INSNS_PER_TICK / steps
     );
-    debug::exit(debug::EXIT_SUCCESS);
-    #[allow(clippy::empty_loop)]
-    loop {}
+}
+
+/// Validates, plans and verifies reference slice `r`, builds its two layers into digest
+/// sinks (as a motion queue would take them: no path buffer), and prints the figures.
+#[inline(never)]
+fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut OffsetSpiral) {
+    let name = r.name;
+    let t0 = ticks();
+    let slice = built_in_slice(r);
+    let t1 = ticks();
+    let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
+    let t2 = ticks();
+    let verdict = hollowpath::verify::verify(&slice, plan);
+    let t3 = ticks();
+    hprintln!(
+        "slice {} mcls {} bisectors {} branch_points {} digest {:016x}",
+        name,
+        plan.mcls.len(),
+        plan.bisectors().len(),
+        plan.cells.branch_points.len(),
+        plan.digest()
+    );
+    if let Err(v) = verdict {
+        fail("verify", v);
+    }
+    let mut sink = DigestSink::new();
+    let t4 = ticks();
+    zigzag(&slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
+    let t5 = ticks();
+    hprintln!(
+        "layer {} 0 vertices {} digest {:016x}",
+        name,
+        sink.len(),
+        sink.digest()
+    );
+    let mut sink = DigestSink::new();
+    let t6 = ticks();
+    let stats = offset
+        .build(&slice, plan, &mut sink)
+        .unwrap_or_else(|e| fail("offset spiral", e));
+    let t7 = ticks();
+    hprintln!(
+        "layer {} 1 vertices {} digest {:016x} jumps {}",
+        name,
+        sink.len(),
+        sink.digest(),
+        stats.jumps
+    );
+    for (phase, t) in [
+        ("validate", t1 - t0),
+        ("plan", t2 - t1),
+        ("verify", t3 - t2),
+        ("zigzag", t5 - t4),
+        ("offset_spiral", t7 - t6),
+    ] {
+        hprintln!("bench {} {} {}", phase, name, t * INSNS_PER_TICK);
+    }
 }
 
 #[panic_handler]

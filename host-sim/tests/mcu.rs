@@ -1,5 +1,5 @@
-//! The firmware plans the built-in slice in QEMU's Cortex-M4F (mps2-an386) and must get the
-//! bit-identical plan the host gets.
+//! The firmware plans the four reference slices in QEMU's Cortex-M4F (mps2-an386) and must get
+//! the bit-identical plans and layers the host gets.
 //!
 //! Needs `qemu-system-arm` (CI installs it) and the `thumbv7em-none-eabihf` target (from
 //! `rust-toolchain.toml`). Without QEMU the test is skipped locally but fails under CI.
@@ -24,43 +24,66 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
     let (out, err) = (q.stdout(), q.stderr());
     println!("{out}");
     assert!(status.success(), "firmware failed:\n{out}\n{err}");
-    assert!(out.contains("verify ok"), "{out}");
-    let digest = out
+    // Every reference slice: the plan and both layers, streamed on the MCU, match the host's
+    // vertex for vertex, and each phase's instruction count is reported.
+    for (name, text) in host_sim::REFERENCE_SLICES {
+        let slice = host_sim::slice_file::parse(text).unwrap().slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        let expect = format!(
+            "slice {name} mcls {} bisectors {} branch_points {} digest {:016x}",
+            plan.mcls.len(),
+            plan.bisectors().len(),
+            plan.cells.branch_points.len(),
+            plan.digest()
+        );
+        assert!(out.lines().any(|l| l == expect), "no `{expect}` in:\n{out}");
+        let mut zigzag = hollowpath::toolpath::DigestSink::new();
+        hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
+        let mut offset = hollowpath::toolpath::DigestSink::new();
+        let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
+        work.build(&slice, plan, &mut offset).unwrap();
+        for (k, sink) in [zigzag, offset].iter().enumerate() {
+            let expect = format!(
+                "layer {name} {k} vertices {} digest {:016x}",
+                sink.len(),
+                sink.digest()
+            );
+            assert!(
+                out.lines().any(|l| l.starts_with(&expect)),
+                "no `{expect}` in:\n{out}"
+            );
+        }
+        for phase in ["validate", "plan", "verify", "zigzag", "offset_spiral"] {
+            let line = format!("bench {phase} {name} ");
+            let n: u64 = out
+                .lines()
+                .find_map(|l| l.strip_prefix(&line))
+                .and_then(|n| n.trim().parse().ok())
+                .unwrap_or_else(|| panic!("no `{line}N` in:\n{out}"));
+            assert!(n > 0, "{line}{n}");
+        }
+    }
+    // The RAM figures: statics and the painted stack's peak, within QEMU's clipped RAM.
+    let ram = out
         .lines()
-        .find_map(|l| l.strip_prefix("digest "))
-        .unwrap_or_else(|| panic!("no digest in:\n{out}"));
+        .find_map(|l| l.strip_prefix("ram static "))
+        .unwrap_or_else(|| panic!("no ram line in:\n{out}"));
+    let f: Vec<usize> = ram
+        .split(" stack ")
+        .map(|n| n.trim().parse().unwrap())
+        .collect();
+    assert!(f[0] > 0 && f[1] > 0, "{ram}");
+    assert!(
+        f[0] + f[1] <= 640 * 1024,
+        "RAM over the 640 KiB of memory.x: {ram}"
+    );
 
     let slice = host_sim::slice_file::parse(host_sim::DEFAULT_SLICE)
         .unwrap()
         .slice;
     let planner = host_sim::plan(&slice).unwrap();
-    assert_eq!(
-        digest.trim(),
-        format!("{:016x}", planner.last_plan().digest())
-    );
-    // The layers, streamed on the MCU, match the host's vertex for vertex.
     let plan = planner.last_plan();
-    let mut zigzag = hollowpath::toolpath::DigestSink::new();
-    hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
-    let mut offset = hollowpath::toolpath::DigestSink::new();
-    let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
-    work.build(&slice, plan, &mut offset).unwrap();
-    for (k, sink) in [zigzag, offset].iter().enumerate() {
-        let line = out
-            .lines()
-            .find_map(|l| l.strip_prefix(&format!("layer {k} ")))
-            .unwrap_or_else(|| panic!("no layer {k} in:\n{out}"));
-        let expect = format!("vertices {} digest {:016x} ", sink.len(), sink.digest());
-        assert!(
-            line.starts_with(&expect),
-            "layer {k}: {line}, host {expect}"
-        );
-    }
-    let mcls = out.lines().find_map(|l| l.strip_prefix("mcls ")).unwrap();
-    assert!(
-        mcls.starts_with(&format!("{} ", planner.last_plan().mcls.len())),
-        "{mcls}"
-    );
 
     // The motion code on the MCU steps the zigzag's first moves exactly as the host's virtual
     // printer does: the same pulses per axis and valve openings per channel.
