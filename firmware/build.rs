@@ -1,6 +1,7 @@
-//! Links with cortex-m-rt's `link.x` and `firmware/memory.x` (thumb targets only; not at the
-//! workspace root, where the linker would find it before the per-binary copies), and
-//! turns the four reference slices (host-sim/data/*.json) into Rust constants.
+//! Links with `link-mps2.x` (cortex-m-rt's `link.x`, vendored, including `memory-mps2.x`, a
+//! copy of `firmware/memory.x`: the top-level memory.x is the SKR 2 board's, and the linker
+//! would find it first) (thumb targets only), and turns the four reference slices
+//! (host-sim/data/*.json) into Rust constants.
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -17,9 +18,9 @@ fn main() {
     std::fs::create_dir_all(&small).unwrap();
     std::fs::create_dir_all(&big).unwrap();
     let memory = std::fs::read_to_string(root.join("firmware/memory.x")).unwrap();
-    std::fs::write(small.join("memory.x"), &memory).unwrap();
+    std::fs::write(small.join("memory-mps2.x"), &memory).unwrap();
     std::fs::write(
-        big.join("memory.x"),
+        big.join("memory-mps2.x"),
         memory.replace("LENGTH = 640K", "LENGTH = 1024K"),
     )
     .unwrap();
@@ -29,8 +30,14 @@ fn main() {
     );
     println!("cargo:rustc-link-arg-bin=link=-L{}", big.display());
     println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=link-mps2.x");
+    // Our own copy of cortex-m-rt's link.x, including `memory-mps2.x`: the linker runs in
+    // the workspace root, whose memory.x (the SKR 2 board) it would find before any -L path.
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
+    std::fs::copy(manifest.join("link-mps2.x"), out.join("link-mps2.x")).unwrap();
+    println!("cargo:rustc-link-search={}", out.display());
     if std::env::var("TARGET").unwrap().starts_with("thumb") {
-        println!("cargo:rustc-link-arg=-Tlink.x");
+        println!("cargo:rustc-link-arg=-Tlink-mps2.x");
     }
 
     // The four reference slices, in the order the benchmark lines print them.
