@@ -21,6 +21,13 @@ pub fn statics() -> usize {
     unsafe { addr(&__sheap) - addr(&_ram_start) }
 }
 
+/// Bytes between the end of the statics and the top of RAM: the most the stack can take
+/// before it writes over them.
+pub fn room() -> usize {
+    // SAFETY: only the addresses of the linker's symbols are taken, never their contents.
+    unsafe { addr(&_stack_start) - addr(&__sheap) }
+}
+
 /// Paints the free RAM below the current frame (with a 256-byte margin for this function's
 /// own frame). Call it first thing in `main`.
 #[inline(never)]

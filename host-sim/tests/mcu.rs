@@ -64,7 +64,8 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
             assert!(n > 0, "{line}{n}");
         }
     }
-    // The RAM figures: statics and the painted stack's peak, within QEMU's clipped RAM.
+    // The RAM figures: statics and the painted stack's peak, with paint left between them (the
+    // firmware fails if none is: a stack that reached the statics).
     let ram = out
         .lines()
         .find_map(|l| l.strip_prefix("ram static "))
@@ -75,8 +76,8 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
         .collect();
     assert!(f[0] > 0 && f[1] > 0, "{ram}");
     assert!(
-        f[0] + f[1] <= 640 * 1024,
-        "RAM over the 640 KiB of memory.x: {ram}"
+        f[0] + f[1] < 1024 * 1024,
+        "RAM over the 1 MiB the bench firmware links in: {ram}"
     );
 
     let slice = host_sim::slice_file::parse(host_sim::DEFAULT_SLICE)
