@@ -1,7 +1,7 @@
 //! Planning each reference slice on the host (criterion). Compare runs as ratios: the machines
 //! are shared and noisy.
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{black_box, criterion_group, Criterion};
 use hollowpath::Planner;
 use host_sim::{slice_file, REFERENCE_SLICES};
 
@@ -51,4 +51,17 @@ fn layers_of_reference_slices(c: &mut Criterion) {
 }
 
 criterion_group!(benches, plan_reference_slices, layers_of_reference_slices);
-criterion_main!(benches);
+
+/// `criterion_main!` on a thread with room for the host build's capacities (the planner and
+/// the layers' working memory take megabytes, more than the main thread's stack).
+fn main() {
+    std::thread::Builder::new()
+        .stack_size(512 << 20)
+        .spawn(|| {
+            benches();
+            Criterion::default().configure_from_args().final_summary();
+        })
+        .unwrap()
+        .join()
+        .unwrap();
+}

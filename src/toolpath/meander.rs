@@ -4,7 +4,7 @@
 
 use crate::geometry::{polyline, Point};
 use crate::toolpath::composition::along;
-use crate::toolpath::zigzag::{EDGE_MARGIN, NONE};
+use crate::toolpath::zigzag::EDGE_MARGIN;
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
@@ -27,50 +27,269 @@ pub(super) fn too_wide(slice: &Slice, band: Option<Band>) -> bool {
     })
 }
 
+/// The MCLs a zigzag lays, which the band of each road is measured against ([`band_at`]),
+/// and the boxes around them (to skip those too far to matter).
+#[derive(Clone, Copy)]
+pub(super) struct Fan<'a> {
+    /// The plan index of the MCL the road runs along.
+    pub me: u16,
+    /// Its place in `laid`: the MCLs next to it there (its neighbours around the feature) are
+    /// measured first, so the nearest bound the search early.
+    pub at: u16,
+    /// Plan indices of the MCLs laid.
+    pub laid: &'a [u16],
+    /// The box around each MCL laid, in the order of `laid`.
+    pub boxes: &'a [(Point, Point)],
+    /// The box around each run of [`CHUNK`] MCLs in `laid` (neighbours around a feature, so
+    /// one box rules out several far ones at once).
+    pub chunks: &'a [(Point, Point)],
+}
+
+/// How many MCLs laid in a row share one of [`Fan::chunks`]' boxes.
+pub(super) const CHUNK: usize = 8;
+
+/// The `step`-th of `0..n` outward from `at`: `at`, `at + 1`, `at - 1`, `at + 2`, ... (mod `n`,
+/// each once over `step` in `0..n`).
+fn outward(at: usize, step: usize, n: usize) -> usize {
+    let half = step.div_ceil(2);
+    if step % 2 == 1 {
+        let i = at + half;
+        if i >= n {
+            i - n
+        } else {
+            i
+        }
+    } else if half > at {
+        at + n - half
+    } else {
+        at - half
+    }
+}
+
+/// How far a ball may grow from `p` along the unit normal `n` before it touches segment
+/// `a`-`b` less `off`: the least `t >= 0` at which `p + t n` is no nearer `p` than the
+/// segment's `off`-neighbourhood (`dist(p + t n, ab) <= t + off`), infinite if never. The
+/// distance from a point moving along a line to a segment is convex in `t`, so the first
+/// such `t` is the least root among the segment's pieces (its two ends and its interior).
+fn ball(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
+    let mut best = f32::INFINITY;
+    // The ends: |c - p - t n| = t + off.
+    for c in [a, b] {
+        let d = c - p;
+        let den = 2.0 * (n.dot(d) + off);
+        if den > 1e-12 {
+            let t = (d.dot(d) - off * off) / den;
+            best = best.min(t.max(0.0));
+        }
+    }
+    // The interior: the signed distance to the segment's line, h(t) = h0 + t (n . m), is
+    // +-(t + off) with its foot inside the segment.
+    let e = b - a;
+    let len = e.norm();
+    if len > 1e-9 {
+        let m = Point::new(-e.y / len, e.x / len);
+        let h0 = (p - a).dot(m);
+        let nm = n.dot(m);
+        let s0 = (p - a).dot(e) / (len * len);
+        if h0.abs() <= off && (0.0..=1.0).contains(&s0) {
+            // `p` lies within `off` of the segment already.
+            return 0.0;
+        }
+        for (num, den) in [(h0 - off, 1.0 - nm), (-h0 - off, 1.0 + nm)] {
+            if den > 1e-9 && num >= 0.0 {
+                let t = num / den;
+                let s = (p + n * t - a).dot(e) / (len * len);
+                if (0.0..=1.0).contains(&s) && t < best {
+                    best = t;
+                }
+            }
+        }
+    }
+    best
+}
+
+/// How far the ray from `p` along the unit vector `n` runs before it comes within `off` of
+/// segment `a`-`b`: the least `t >= 0` with `dist(p + t n, ab) <= off`, infinite if never (the
+/// distance is convex in `t`: the least root among the segment's ends and interior).
+fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
+    let e = b - a;
+    let len2 = e.dot(e);
+    let s0 = if len2 > 1e-18 {
+        ((p - a).dot(e) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if (a + e * s0).dist(p) <= off {
+        return 0.0;
+    }
+    let mut best = f32::INFINITY;
+    // The ends: |c - p - t n| = off.
+    for c in [a, b] {
+        let d = c - p;
+        let k = n.dot(d);
+        let disc = k * k - d.dot(d) + off * off;
+        if disc >= 0.0 {
+            let t = k - libm::sqrtf(disc);
+            if t >= 0.0 {
+                best = best.min(t);
+            }
+        }
+    }
+    // The interior: the signed distance to the line, h0 + t (n . m), is +-off with its foot
+    // inside the segment.
+    if len2 > 1e-18 {
+        let len = libm::sqrtf(len2);
+        let m = Point::new(-e.y / len, e.x / len);
+        let h0 = (p - a).dot(m);
+        let nm = n.dot(m);
+        if nm.abs() > 1e-9 {
+            for target in [off, -off] {
+                let t = (target - h0) / nm;
+                if t >= 0.0 && t < best {
+                    let s = (p + n * t - a).dot(e) / len2;
+                    if (0.0..=1.0).contains(&s) {
+                        best = t;
+                    }
+                }
+            }
+        }
+    }
+    best
+}
+
+/// The squared distance from `p` to the box `(lo, hi)` (0 inside it).
+fn box_dist2(p: Point, (lo, hi): (Point, Point)) -> f32 {
+    let dx = (lo.x - p.x).max(p.x - hi.x).max(0.0);
+    let dy = (lo.y - p.y).max(p.y - hi.y).max(0.0);
+    dx * dx + dy * dy
+}
+
+/// The distance from `p` to the box `(lo, hi)` (0 inside it).
+fn box_dist(p: Point, bbox: (Point, Point)) -> f32 {
+    libm::sqrtf(box_dist2(p, bbox))
+}
+
+/// The features' edges a ray from `p` may meet within `limit`, each with the least `t` at
+/// which the ray comes within `off` of it ([`within`]): the least over all features.
+fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
+    let mut best = f32::INFINITY;
+    for f in slice.holes().iter().chain(core::iter::once(slice.wall())) {
+        if box_dist(p, f.bbox()) >= best + off {
+            continue;
+        }
+        let pts = f.points();
+        for (i, &a) in pts.iter().enumerate() {
+            let b = pts[(i + 1) % pts.len()];
+            // Only a segment that reaches the strip `off` either side of the ray, ahead of
+            // `p` and nearer than the best so far, can be nearer (a segment lies between
+            // its ends): most are ruled out by four products.
+            let (da, db) = (a - p, b - p);
+            let (ha, hb) = (n.cross(da), n.cross(db));
+            let (ga, gb) = (n.dot(da), n.dot(db));
+            if (ha > off && hb > off)
+                || (ha < -off && hb < -off)
+                || (ga < -off && gb < -off)
+                || (ga > best + off && gb > best + off)
+            {
+                continue;
+            }
+            best = best.min(within(p, n, a, b, off));
+        }
+    }
+    best
+}
+
+/// How far the ground across the MCL at `p` reaches along the unit normal `n` before it is
+/// another road's, as the gap to a neighbour (the road owns half of it): twice the radius of
+/// the largest ball centred on the normal that touches the MCL at `p` and no other MCL laid,
+/// so each road fills up to the medial line between it and the next, from whatever side that
+/// comes, and neighbouring roads' strokes meet without overlap however the MCLs fan, curve or
+/// end; or, where the normal meets a feature first, twice the room up to its keep-out strip
+/// (a road wide, where the arcs run). The MCL the road runs along counts too, away from `p`
+/// (a curved MCL may face itself).
+fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
+    let w = slice.settings().road_width;
+    let strip = w + 2.0 * EDGE_MARGIN;
+    // Cannot stay infinite: the wall stops every ray from inside it.
+    let hit = features_within(slice, p, n, 0.0);
+    let mut best = if hit.is_finite() {
+        (hit - strip).max(0.0)
+    } else {
+        0.0
+    };
+    // From the MCL's own place in `laid` outward: its neighbours first.
+    let count = fan.laid.len();
+    let runs = fan.chunks.len();
+    let at = (fan.at as usize).min(count.saturating_sub(1)) / CHUNK;
+    for step in 0..runs {
+        let c = outward(at, step, runs);
+        // A ball of radius t from p reaches no point farther than 2 t from p.
+        if box_dist2(p, fan.chunks[c]) >= 4.0 * best * best {
+            continue;
+        }
+        for i in c * CHUNK..((c + 1) * CHUNK).min(count) {
+            reach_mcl(plan, p, n, fan, i, w, &mut best);
+        }
+    }
+    2.0 * best
+}
+
+/// [`reach`]'s search over the `i`-th MCL of `fan.laid`: lowers `best` to the radius of the
+/// first ball along `p + t n` that touches it.
+fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, out: &mut f32) {
+    let mut best = *out;
+    let (m, bbox) = (fan.laid[i], fan.boxes[i]);
+    if box_dist2(p, bbox) >= 4.0 * best * best {
+        return;
+    }
+    {
+        let pts = plan.points(&plan.mcls[m as usize]);
+        for seg in pts.windows(2) {
+            // The balls still in question lie ahead of `p` within `2 best` along `n` and
+            // within `best` across it: a segment wholly outside that box cannot touch them.
+            let (da, db) = (seg[0] - p, seg[1] - p);
+            let (ha, hb) = (n.cross(da), n.cross(db));
+            let (ga, gb) = (n.dot(da), n.dot(db));
+            if (ga < 0.0 && gb < 0.0)
+                || (ga > 2.0 * best && gb > 2.0 * best)
+                || (ha > best && hb > best)
+                || (ha < -best && hb < -best)
+            {
+                continue;
+            }
+            // Its own segments next to `p` are where the ball touches.
+            if m == fan.me
+                && (seg[0].dist(p) < 2.0 * w
+                    || seg[1].dist(p) < 2.0 * w
+                    || polyline::closest_on_segment(seg[0], seg[1], p).0.dist(p) < 1e-3)
+            {
+                continue;
+            }
+            best = best.min(ball(p, n, seg[0], seg[1], 0.0));
+        }
+    }
+    *out = best;
+}
+
 /// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
-/// the MCL and the distances to the nearest neighbouring MCL on the left and on the right (a
-/// side without a neighbour mirrors the other); the road owns half of each gap. `None` where
-/// `dir` is degenerate.
+/// the MCL and how far the ground reaches across it on the left and on the right before the
+/// next road ([`reach`]: the first MCL laid that the normal meets, or a feature's keep-out
+/// strip); the road owns half of each gap. `None` where `dir` is degenerate.
 pub(super) fn band_at(
     slice: &Slice,
     plan: &Plan,
     p: Point,
     dir: Point,
-    near: &[u16; 4],
+    fan: &Fan<'_>,
 ) -> Option<Band> {
-    let w = slice.settings().road_width;
     let len = dir.norm();
     if len < 1e-6 {
         return None;
     }
     // Unit normal to the left of the MCL.
     let left_n = Point::new(-dir.y / len, dir.x / len);
-    let (mut left, mut right) = (f32::INFINITY, f32::INFINITY);
-    for (k, &m) in near.iter().enumerate() {
-        if m == NONE || near[..k].contains(&m) {
-            continue;
-        }
-        let other = plan.points(&plan.mcls[m as usize]);
-        let mut best = (f32::INFINITY, Point::new(0.0, 0.0));
-        for seg in other.windows(2) {
-            let (q, _) = polyline::closest_on_segment(seg[0], seg[1], p);
-            let d = q.dist(p);
-            if d < best.0 {
-                best = (d, q);
-            }
-        }
-        if left_n.dot(best.1 - p) > 0.0 {
-            left = left.min(best.0);
-        } else {
-            right = right.min(best.0);
-        }
-    }
-    let (left, right) = match (left.is_finite(), right.is_finite()) {
-        (true, true) => (left, right),
-        (true, false) => (left, left),
-        (false, true) => (right, right),
-        (false, false) => (w, w),
-    };
+    let left = reach(slice, plan, p, left_n, fan);
+    let right = reach(slice, plan, p, left_n * -1.0, fan);
     Some((left_n, left, right))
 }
 
@@ -82,8 +301,7 @@ pub(super) fn band_at(
 /// an MCL's vertices are mostly nearer each other than a road, and a move shorter than a road
 /// holds one stroke or none. Emits the strokes along the MCL's move from `a` to `b` (arc
 /// lengths `sa`, `sb` of `len` from the `from` end, materials `ma`, `mb` at its ends),
-/// `right_first` the side the next stroke starts on, `in_meander` set to whether the last
-/// sample was a stroke.
+/// `state` the meander so far along the MCL.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn meander(
     slice: &Slice,
@@ -91,8 +309,8 @@ pub(super) fn meander(
     (a, b): (Point, Point),
     (sa, sb, len): (f32, f32, f32),
     (ma, mb): (&crate::Material, &crate::Material),
-    near: &[u16; 4],
-    (right_first, in_meander): (&mut bool, &mut bool),
+    fan: &Fan<'_>,
+    state: &mut Strokes,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
     let w = slice.settings().road_width;
@@ -121,15 +339,15 @@ pub(super) fn meander(
         }
         let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
         let material = along(ma, mb, s, len);
-        *in_meander = stroke(
+        state.in_meander = stroke(
             slice,
             plan,
             a.lerp(b, t),
             dir,
             spacing,
             material,
-            near,
-            right_first,
+            fan,
+            state,
             sink,
         )?;
         k += step;
@@ -137,10 +355,37 @@ pub(super) fn meander(
     Ok(())
 }
 
+/// Where a meander along one MCL stands.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Strokes {
+    /// The side the next stroke starts on.
+    pub right_first: bool,
+    /// Whether the last sample along the MCL was a stroke.
+    pub in_meander: bool,
+    /// The ends (right, left) of the last stroke, while the strokes run on.
+    tips: Option<[Point; 2]>,
+}
+
+impl Strokes {
+    /// Before the first stroke of an MCL.
+    pub(super) fn new() -> Strokes {
+        Strokes {
+            right_first: true,
+            in_meander: false,
+            tips: None,
+        }
+    }
+}
+
 /// One stroke of a [`meander`] across the band at `q` (the MCL's direction `dir`), `spacing`
 /// from the last, if the band there is wider than the widest road: from the side
-/// `right_first` names to the other, which the next stroke then starts from. Returns whether
-/// the band is that wide (whether `q` belongs to a meander).
+/// `state.right_first` names to the other, which the next stroke then starts from. Returns
+/// whether the band is that wide (whether `q` belongs to a meander).
+///
+/// The strokes stand a road apart along the MCL; where they fan apart across a wide band (the
+/// MCL curves away from that side), each end is as wide as the gap to the last stroke's end
+/// on its side, up to [`max_width`](crate::Settings::max_width) and a road off the strip, and
+/// the stroke tapers from it to `spacing` at the MCL, so the fan leaves no wedges bare.
 #[allow(clippy::too_many_arguments)]
 fn stroke(
     slice: &Slice,
@@ -149,49 +394,77 @@ fn stroke(
     dir: Point,
     spacing: f32,
     material: crate::Material,
-    near: &[u16; 4],
-    right_first: &mut bool,
+    fan: &Fan<'_>,
+    state: &mut Strokes,
     sink: &mut impl PathSink,
 ) -> Result<bool, Error> {
     let settings = slice.settings();
-    let band = band_at(slice, plan, q, dir, near);
+    let band = band_at(slice, plan, q, dir, fan);
     let Some((left_n, left, right)) = band.filter(|_| too_wide(slice, band)) else {
+        state.tips = None;
         return Ok(false);
     };
     let ws = spacing.max(settings.min_width);
-    // Each side as far out as the band reaches, pulled back toward the MCL where the
-    // stroke would leave the region (the band of an MCL whose neighbour lies beyond a
-    // feature, a pinch).
+    // Room for the stroke off every keep-out curve's strip (each feature's own material's
+    // place, where an arc may run): its edge a road off the feature.
+    let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
     let side = |reach: f32, sign: f32| {
-        [1.0f32, 0.75, 0.5, 0.25, 0.0]
-            .iter()
-            .map(|f| q + left_n * (sign * f * reach))
-            .find(|&e| {
-                // Room for the stroke off every keep-out curve's strip (each feature's own
-                // material's place, where an arc may run): its edge a road off the feature.
-                slice.clearance(e) >= settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN
-                    && !slice.segment_crosses_feature(q, e)
-            })
-            .unwrap_or(q)
+        // As far out as the band reaches, short of the strip along the stroke's line (a stroke
+        // beside a wall or a hole runs on beside it): the line up to where it first comes
+        // within `room` of a feature's edge keeps `room` from every feature, and crosses
+        // none (it would meet the edge first). None where `q` itself is within `room`.
+        let free = features_within(slice, q, left_n * sign, room);
+        q + left_n * (sign * reach.min(free))
     };
-    let sides = [
+    let tips = [
         side((0.5 * right - 0.5 * ws).max(0.0), -1.0),
         side((0.5 * left - 0.5 * ws).max(0.0), 1.0),
     ];
-    let order = if *right_first { [0, 1] } else { [1, 0] };
-    for k in order {
+    // Each end as wide as the gap to the last stroke's end on its side, where the strokes fan
+    // apart (across the MCL's direction), within reach of the strip; the wider end stops
+    // short by its extra half width, so its round end keeps to the band.
+    let along_mcl = dir * (1.0 / dir.norm());
+    let tip_width = |k: usize| {
+        let gap = state
+            .tips
+            .map_or(ws, |last| (last[k] - tips[k]).dot(along_mcl).abs());
+        let cap = 2.0 * (slice.clearance(tips[k]) - settings.road_width - 2.0 * EDGE_MARGIN);
+        gap.min(settings.max_width).min(cap).max(ws)
+    };
+    let widths = [tip_width(0), tip_width(1)];
+    let tips = [0, 1].map(|k| {
+        let out = tips[k].dist(q);
+        let back = (0.5 * (widths[k] - ws)).min(out);
+        if out > 1e-6 {
+            tips[k] + (q - tips[k]) * (back / out)
+        } else {
+            tips[k]
+        }
+    });
+    let order = if state.right_first { [0, 1] } else { [1, 0] };
+    let at = |k: usize| Vertex {
+        at: tips[k],
+        material,
+        width: widths[k],
+        deposit: true,
+    };
+    emit_move(slice, sink, at(order[0]))?;
+    if tips[0].dist(q) > ws && tips[1].dist(q) > ws {
+        // The MCL's point between the two tapers.
         emit_move(
             slice,
             sink,
             Vertex {
-                at: sides[k],
+                at: q,
                 material,
                 width: ws,
                 deposit: true,
             },
         )?;
     }
-    *right_first = !*right_first;
+    emit_move(slice, sink, at(order[1]))?;
+    state.right_first = !state.right_first;
+    state.tips = Some(tips);
     Ok(true)
 }
 

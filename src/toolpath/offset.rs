@@ -157,8 +157,8 @@ const _: () = assert!(CONTOUR_POINTS <= u16::MAX as usize);
 /// let slice = Slice::new(wall, &[hole], Settings::default()).unwrap();
 /// let plan = Box::new(Planner::new()).plan(&slice).unwrap().clone();
 /// let mut work = Box::new(OffsetSpiral::new());
-/// let mut path: Vec<Vertex> = Vec::new();
-/// let stats = work.build(&slice, &plan, &mut path).unwrap();
+/// let mut path = Box::new(hollowpath::heapless::Vec::<Vertex, 65_536>::new());
+/// let stats = work.build(&slice, &plan, &mut *path).unwrap();
 /// // One road: the first vertex is reached by travel, every later move deposits.
 /// assert!(path[1..].iter().all(|v| v.deposit));
 /// assert_eq!(stats.jumps, 0);

@@ -27,7 +27,7 @@ use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::geometry::{polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::{along, mcl_end_materials};
-use crate::toolpath::meander::{band_at, meander, road_at, too_wide};
+use crate::toolpath::meander::{band_at, meander, road_at, too_wide, Fan, Strokes, CHUNK};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice, Target};
 
@@ -369,6 +369,39 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     }
     stats.pieces = ends.pieces(&mut parent);
 
+    // The MCLs laid, and their boxes: each road's band reaches to the next of them.
+    let mut boxes: Vec<(Point, Point), MAX_MCLS> = Vec::new();
+    for &k in ends.mcls.iter() {
+        let pts = plan.points(&plan.mcls[k as usize]);
+        let mut lo = pts[0];
+        let mut hi = pts[0];
+        for q in pts.iter() {
+            lo = Point::new(lo.x.min(q.x), lo.y.min(q.y));
+            hi = Point::new(hi.x.max(q.x), hi.y.max(q.y));
+        }
+        boxes
+            .push((lo, hi))
+            .map_err(|_| crate::error::Limit::Mcls.error())?;
+    }
+    let mut chunks: Vec<(Point, Point), { MAX_MCLS.div_ceil(CHUNK) }> = Vec::new();
+    for run in boxes.chunks(CHUNK) {
+        let (mut lo, mut hi) = run[0];
+        for &(a, b) in run {
+            lo = Point::new(lo.x.min(a.x), lo.y.min(a.y));
+            hi = Point::new(hi.x.max(b.x), hi.y.max(b.y));
+        }
+        chunks
+            .push((lo, hi))
+            .map_err(|_| crate::error::Limit::Mcls.error())?;
+    }
+    let fan = Fan {
+        me: NONE,
+        at: 0,
+        laid: &ends.mcls,
+        boxes: &boxes,
+        chunks: &chunks,
+    };
+
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces,
     // travel to the nearest free end.
     let open = open_pieces(&ends, &mut parent);
@@ -397,7 +430,11 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             // Along the MCL from `id` to its other end.
             let k = ends.mcls[(id / 2) as usize] as usize;
             let forward = id % 2 == 0;
-            let near = neighbours(&ends, (id / 2) as usize);
+            let fan = Fan {
+                me: k as u16,
+                at: id / 2,
+                ..fan
+            };
             // In walking order: the end it starts from, then the other.
             let spliced = [id, id ^ 1]
                 .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
@@ -406,7 +443,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             visited[other as usize] = true;
             let mate = ends.arc[other as usize];
             let next = (mate != NONE && !visited[mate as usize]).then_some(mate);
-            emit_mcl(slice, plan, k, &near, spliced, forward, first, sink)?;
+            emit_mcl(slice, plan, k, &fan, spliced, forward, first, sink)?;
             first = false;
             let Some(mate) = next else {
                 here = Some(end_point(plan, &ends, other));
@@ -441,24 +478,6 @@ fn end_point(plan: &Plan, ends: &Ends, id: u16) -> Point {
     }
 }
 
-/// The MCLs next to MCL `ends.mcls[i]` along the curves of its two ends (plan indices,
-/// `NONE` where there is none): the roads it runs between.
-fn neighbours(ends: &Ends, i: usize) -> [u16; 4] {
-    let mut out = [NONE; 4];
-    for (slot, id) in [2 * i, 2 * i + 1].into_iter().enumerate() {
-        let (lo, hi) = ends.ranges[ends.curve[id] as usize];
-        let (lo, n) = (lo as usize, (hi - lo) as usize);
-        let pos = ends.slot[id] as usize;
-        for (side, step) in [n - 1, 1].into_iter().enumerate() {
-            let other = ends.order[lo + (pos + step) % n] as usize / 2;
-            if other != i {
-                out[2 * slot + side] = ends.mcls[other];
-            }
-        }
-    }
-    out
-}
-
 /// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
 /// neighbouring MCLs ([`neighbours`]), `spliced` the curve of each end (`from` end first) that
 /// leads into a splice's inner arc ([`inner_end`]); the first vertex of a piece is reached by
@@ -468,7 +487,7 @@ fn emit_mcl(
     slice: &Slice,
     plan: &Plan,
     k: usize,
-    near: &[u16; 4],
+    fan: &Fan<'_>,
     spliced: [Option<usize>; 2],
     forward: bool,
     travel_to_start: bool,
@@ -504,7 +523,7 @@ fn emit_mcl(
                 (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
             })
     };
-    let (mut right_first, mut in_meander) = (true, false);
+    let mut strokes = Strokes::new();
     for step in 0..n {
         let i = order(step);
         let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
@@ -526,11 +545,12 @@ fn emit_mcl(
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
             // Inside a meander (the last sample before was a stroke, and the band here is
             // wide too) the strokes fill the band: no road along the MCL's middle.
-            let band = band_at(slice, plan, p, dir, near);
-            if in_meander && !is_end && step != 0 && step + 1 != n && too_wide(slice, band) {
+            let band = band_at(slice, plan, p, dir, fan);
+            if strokes.in_meander && !is_end && step != 0 && step + 1 != n && too_wide(slice, band)
+            {
                 continue;
             }
-            in_meander = false;
+            strokes.in_meander = false;
             let (mut at, mut width) = road_at(slice, p, is_end, band);
             // An end into a splice's inner arc lies on its line, a quarter road off the curve.
             let shifted = match step {
@@ -561,8 +581,8 @@ fn emit_mcl(
                 (pts[i], pts[j]),
                 (cum[i], cum[j], len),
                 (&ma, &mb),
-                near,
-                (&mut right_first, &mut in_meander),
+                fan,
+                &mut strokes,
                 sink,
             )?;
         }
