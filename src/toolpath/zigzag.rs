@@ -218,12 +218,17 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
 fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<ZigzagStats, Error> {
     let half = 0.5 * slice.settings().road_width;
     let holes = slice.holes().len();
-    // Cannot fail: a slice holds at most MAX_HOLES holes, and one wall.
+    // A slice holds at most MAX_HOLES holes, and one wall: a full buffer is a slice with more
+    // holes than the capacity, said so.
     let mut curves: Vec<KeepOut<'_>, CURVES> = Vec::new();
     for h in slice.holes() {
-        let _ = curves.push(KeepOut::new(h, half, Side::Outside));
+        curves
+            .push(KeepOut::new(h, half, Side::Outside))
+            .map_err(|_| crate::error::Limit::Holes.error())?;
     }
-    let _ = curves.push(KeepOut::new(slice.wall(), half, Side::Inside));
+    curves
+        .push(KeepOut::new(slice.wall(), half, Side::Inside))
+        .map_err(|_| crate::error::Limit::Holes.error())?;
     // Parity: every curve with an odd number of MCL ends leaves one end free, and each pair
     // of free ends is a separate path. Beyond one path, drop the shortest MCL joining two odd
     // curves (both turn even) until at most two curves are odd.
