@@ -24,8 +24,10 @@ use crate::slice_file::Contours;
 
 /// Frames the host keeps unacknowledged.
 pub const WINDOW: usize = 4;
-/// Longest wait for the controller to accept an uploaded slice (its reply may have to wait
-/// for the planning of the slice, minutes on an emulated controller, if a frame was lost).
+/// Longest wait for the controller to accept an uploaded slice. The controller serves its
+/// link while it plans (its receive interrupt), so a lost acceptance comes again within
+/// its retransmit time; the bound is for a controller that serves no link while it plans
+/// (minutes on an emulated one).
 pub const SLICE_WAIT: Duration = Duration::from_secs(300);
 /// The host's end of the link.
 pub type HostLink = Link<HostMsg, CtrlMsg, WINDOW>;
@@ -332,8 +334,9 @@ impl<S: Read + Write> LinkClient<S> {
             self.send(&msg.map_err(ClientError::Slice)?)?;
             messages += 1;
         }
-        // The acceptance goes out just before the controller plans the slice, when it serves
-        // no link: should its frame be lost on the way, it comes again after the planning.
+        // The acceptance goes out just before the controller plans the slice. It serves its
+        // link meanwhile from an interrupt; one that does not would send a lost acceptance
+        // again only after the planning.
         let full = self.timeout;
         self.timeout = full.max(SLICE_WAIT);
         let accepted = self.wait_for("slice acceptance", |m| match *m {

@@ -9,13 +9,13 @@
 use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::io::{self, Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
-use hollowpath::app::{App, Io};
+use hollowpath::app::{App, Io, Session, Shared};
 use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
@@ -31,6 +31,7 @@ use host_sim::{printer_file, slice_file, virtual_printer};
 type Pipe = Arc<Mutex<VecDeque<u8>>>;
 
 /// One end of an in-memory byte pipe.
+#[derive(Clone)]
 struct End {
     rx: Pipe,
     tx: Pipe,
@@ -73,15 +74,17 @@ impl Write for End {
 
 /// The app's platform: the pipe, and a clock that runs with the wall clock but jumps to a
 /// deadline it is asked to sleep to (QEMU's `-icount shift=0,sleep=off` does the same).
+/// Clones share the clock (an interrupt reads the same clock as the application).
+#[derive(Clone)]
 struct Platform {
     wire: End,
     t0: Instant,
-    jumped: u64,
+    jumped: Arc<AtomicU64>,
 }
 
 impl Io for Platform {
     fn now_us(&mut self) -> u64 {
-        self.t0.elapsed().as_micros() as u64 + self.jumped
+        self.t0.elapsed().as_micros() as u64 + self.jumped.load(Ordering::Relaxed)
     }
     fn read(&mut self, buf: &mut [u8]) -> usize {
         self.wire.read(buf).unwrap_or(0)
@@ -92,7 +95,9 @@ impl Io for Platform {
     fn sleep(&mut self, until: Option<u64>) {
         let now = self.now_us();
         match until {
-            Some(t) if t > now => self.jumped += t - now,
+            Some(t) if t > now => {
+                self.jumped.fetch_add(t - now, Ordering::Relaxed);
+            }
             Some(_) => {}
             None => std::thread::sleep(Duration::from_micros(100)),
         }
@@ -185,7 +190,27 @@ impl Board for MockBoard {
     }
 }
 
-type TestApp = App<MAX_HOLES, { (MAX_HOLES + 1) * MAX_VERTICES }, 4>;
+const POINTS: usize = (MAX_HOLES + 1) * MAX_VERTICES;
+type TestApp = App<MAX_HOLES, POINTS, 4>;
+type TestSession = Session<MAX_HOLES, POINTS, 4>;
+
+/// The session behind a mutex, as a controller keeps it behind a critical section.
+struct Locked(Mutex<TestSession>);
+
+impl Shared<TestSession> for Locked {
+    fn lock<R>(&self, f: impl FnOnce(&mut TestSession) -> R) -> R {
+        f(&mut self.0.lock().unwrap())
+    }
+}
+
+/// Who serves the link besides the application's own loop.
+#[derive(Clone, Copy, PartialEq)]
+enum Served {
+    /// Nobody: the link waits while the application plans.
+    ByTheAppOnly,
+    /// A thread every 200 us, as the controller's receive interrupt does.
+    AlsoByAnInterrupt,
+}
 
 /// The controller's link timers, in the app clock's microseconds, which jump while it steps
 /// (a layer of 100 s prints in about half a second): the watchdog allows for the host
@@ -209,6 +234,14 @@ struct Outcome {
 
 /// Runs the app on its own thread until `stop`.
 fn spawn_app(wire: End, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<Outcome> {
+    spawn_app_served(wire, stop, Served::AlsoByAnInterrupt)
+}
+
+fn spawn_app_served(
+    wire: End,
+    stop: Arc<AtomicBool>,
+    served: Served,
+) -> std::thread::JoinHandle<Outcome> {
     std::thread::Builder::new()
         .stack_size(host_sim::STACK_BYTES)
         .spawn(move || {
@@ -217,16 +250,31 @@ fn spawn_app(wire: End, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<Outcom
                 minor: 1,
                 patch: 0,
             };
-            let mut app: Box<TestApp> = Box::new(App::new(Controller::new(CTRL, fw)));
+            let mut app: Box<TestApp> = Box::default();
+            let link = Arc::new(Locked(Mutex::new(Session::new(Controller::new(CTRL, fw)))));
             let mut io = Platform {
                 wire,
                 t0: Instant::now(),
-                jumped: 0,
+                jumped: Arc::default(),
             };
+            let interrupt = (served == Served::AlsoByAnInterrupt).then(|| {
+                let (link, mut io, stop) = (link.clone(), io.clone(), stop.clone());
+                std::thread::spawn(move || {
+                    while !stop.load(Ordering::Relaxed) {
+                        link.lock(|s| s.serve(&mut io));
+                        std::thread::sleep(Duration::from_micros(200));
+                    }
+                })
+            });
             let mut board = MockBoard::new();
             while !stop.load(Ordering::Relaxed) {
-                app.poll(&mut io, &mut board);
-                io.sleep(None);
+                app.poll(&*link, &mut io, &mut board);
+                if !link.lock(|s| s.has_events()) {
+                    io.sleep(None);
+                }
+            }
+            if let Some(t) = interrupt {
+                t.join().unwrap();
             }
             Outcome {
                 state: app.machine().map(|m| m.state()),
@@ -489,4 +537,60 @@ fn pause_resume_and_abort_act_on_the_machine_and_the_next_job_prints() {
         assert_eq!(out.state, Some(State::Ready));
         assert_eq!(out.duties, [0; 4]);
     })
+}
+
+/// Sends a message while the controller plans a slice (42 holes, about a second on the
+/// host) and waits for its acknowledgement; whether the plan's digest came before it.
+fn plan_came_before_the_ack(served: Served) -> bool {
+    use host_sim::random_slice::{draw, Draw};
+    host_sim::run_on_large_stack(move || {
+        let (host, ctrl) = pipe();
+        let stop = Arc::new(AtomicBool::new(false));
+        let app = spawn_app_served(ctrl, stop.clone(), served);
+        let mut client = LinkClient::new(host, HOST);
+        client.timeout = Duration::from_secs(60);
+        client.hello().unwrap();
+        client.send_printer(&ci_printer()).unwrap();
+        let r = draw(7, &Draw::default()).unwrap();
+        assert!(r.slice.holes().len() >= 32, "{}", r.description);
+        // Accepted: the controller plans it now.
+        client.upload(&r.slice, 2).unwrap();
+        // A pause outside a job changes nothing (the controller answers with its status).
+        client.send(&HostMsg::Pause).unwrap();
+        client.flush().unwrap();
+        let mut early = false;
+        while let Some(m) = client.next_message(Duration::ZERO).unwrap() {
+            early |= matches!(m, CtrlMsg::Telemetry(Telemetry::Plan { .. }));
+        }
+        let retransmitted_while_planning = client.stats().retransmissions;
+        let mut planned = early;
+        while !planned {
+            match client.next_message(Duration::from_secs(60)).unwrap() {
+                Some(CtrlMsg::Telemetry(Telemetry::Plan { .. })) => planned = true,
+                Some(CtrlMsg::Error(e)) => panic!("{e}"),
+                Some(_) => {}
+                None => panic!("no plan digest"),
+            }
+        }
+        println!(
+            "{}: plan digest before the ack {early}, host retransmissions until the ack {retransmitted_while_planning}",
+            match served {
+                Served::ByTheAppOnly => "served by the app only",
+                Served::AlsoByAnInterrupt => "served by an interrupt too",
+            }
+        );
+        stop.store(true, Ordering::Relaxed);
+        app.join().unwrap();
+        early
+    })
+}
+
+/// The controller keeps answering while it plans: a message sent during the planning is
+/// acknowledged before the plan is done when an interrupt serves the session (as the
+/// firmware's receive interrupt does), and only after it when nothing but the
+/// application's loop does (the check can fail).
+#[test]
+fn while_the_controller_plans_its_interrupt_keeps_the_link_answering() {
+    assert!(!plan_came_before_the_ack(Served::AlsoByAnInterrupt));
+    assert!(plan_came_before_the_ack(Served::ByTheAppOnly));
 }

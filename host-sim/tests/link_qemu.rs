@@ -480,3 +480,57 @@ fn printing_over_a_pty_with_the_serialport_crate() {
     assert_same_telemetry(&got, &simulated_on("1", &printer), 1);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The firmware's receive interrupt serves the link while its loop plans a slice: a message
+/// the host sends after the slice was accepted is acknowledged before the plan is done.
+/// (Before, the firmware read no byte while it planned: the host retransmitted every 40 ms
+/// for the whole planning, and the ack came after the plan's digest.)
+#[test]
+fn while_the_firmware_plans_its_receive_interrupt_acknowledges_the_host() {
+    use hollowpath::link::message::{CtrlMsg, HostMsg, Telemetry};
+    use host_sim::link_client::LinkClient;
+    if !qemu::available("link firmware planning test") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::firmware(Some("link"));
+    let port = free_port();
+    let q = Qemu::start(&elf, Serial::Tcp(port), Clock::JumpIdle);
+    let stream = host_sim::print::open_tcp(&format!("127.0.0.1:{port}")).unwrap();
+    let mut client = LinkClient::new(stream, host_sim::print::HOST_LINK);
+    client.timeout = Duration::from_secs(120);
+    client.hello().unwrap();
+    let slice = host_sim::slice_file::parse(host_sim::REFERENCE_SLICES[0].1)
+        .unwrap()
+        .slice;
+    client.upload(&slice, 1).unwrap();
+    let t = Instant::now();
+    // Outside a job a pause changes nothing; the firmware plans four_holes now (about
+    // 2.7 G emulated instructions with its check).
+    client.send(&HostMsg::Pause).unwrap();
+    client.flush().unwrap();
+    let acked = t.elapsed();
+    let mut early = false;
+    while let Some(m) = client.next_message(Duration::ZERO).unwrap() {
+        early |= matches!(m, CtrlMsg::Telemetry(Telemetry::Plan { .. }));
+    }
+    let mut planned = early;
+    while !planned {
+        match client.next_message(Duration::from_secs(120)).unwrap() {
+            Some(CtrlMsg::Telemetry(Telemetry::Plan { .. })) => planned = true,
+            Some(CtrlMsg::Error(e)) => panic!("{e}"),
+            Some(_) => {}
+            None => panic!("no plan digest: {}", q.stderr()),
+        }
+    }
+    let stats = client.stats();
+    println!(
+        "acknowledged after {:.2} s, plan digest after {:.2} s; host retransmissions {}, timeouts {}",
+        acked.as_secs_f64(),
+        t.elapsed().as_secs_f64(),
+        stats.retransmissions,
+        stats.timeouts
+    );
+    assert!(!early, "the ack came after the plan");
+    drop(q);
+}

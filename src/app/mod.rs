@@ -1,4 +1,5 @@
-//! The controller application: the link's [`Controller`] and the [`Machine`] in one state
+//! The controller application: the link's
+//! [`Controller`](crate::link::controller::Controller) and the [`Machine`] in one state
 //! machine, generic over the printer's [`Board`] and the platform's [`Io`] (byte stream and
 //! clock, both injected).
 //!
@@ -28,7 +29,13 @@
 //!
 //! [`App::poll`] serves the link and returns the link's next deadline (smoltcp style); a job
 //! runs inside the `poll` that received its `Start`, serving the link itself while it
-//! prints. The step interrupt runs in lockstep with the layer's generator: the generator
+//! prints. The link side, the [`Session`], is not the application's own: it is passed to
+//! `poll` behind the platform's lock ([`Shared`]), which the application takes for each
+//! call into the session and never across planning or stepping. A controller serves the
+//! same session from its receive interrupt ([`Session::serve`]: acks, replies, the host's
+//! messages decoded into a queue of events), so the link answers while the application
+//! plans a slice or builds a layer, seconds in which its loop reads no byte; the
+//! application takes the queued events when it is back in its loop. The step interrupt runs in lockstep with the layer's generator: the generator
 //! fills the look-ahead, and the alarm due next runs (at its own deadline, however late the
 //! platform woke) whenever the look-ahead is full or the layer ended, so the machine sees
 //! the same pushes and alarms as on the host, and counts the same figures. A late wake-up
@@ -37,8 +44,9 @@
 pub mod io;
 pub mod job;
 pub mod session;
+pub mod shared;
 
-use crate::link::controller::{Controller, Event};
+use crate::link::controller::Event;
 use crate::link::error::LinkError;
 use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry};
 use crate::motion::machine::Fault;
@@ -49,6 +57,7 @@ use crate::{Planner, Slice};
 pub use io::Io;
 use job::{Drive, LayerError};
 pub use session::Session;
+pub use shared::Shared;
 
 /// Blocks of look-ahead of the application's machine (the host's virtual printer's too).
 pub const LOOK_AHEAD: usize = 32;
@@ -57,9 +66,10 @@ pub const LOOK_AHEAD: usize = 32;
 const SERVE_US: u64 = 500;
 
 /// The controller application (the module's essay). Large (planner, offset spiral,
-/// assembler, machine): keep it in a `static` (`const fn new`).
+/// machine): keep it in a `static` (`const fn new`). Its link side, the [`Session`], lives
+/// apart behind a [`Shared`] lock, so that a controller's interrupt can serve the link
+/// while the application plans.
 pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
-    session: Session<HOLES, POINTS, W>,
     planner: Planner,
     offset: OffsetSpiral,
     slice: Option<Slice>,
@@ -68,10 +78,9 @@ pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
 }
 
 impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS, W> {
-    /// An idle application around the link's controller.
-    pub const fn new(ctrl: Controller<HOLES, POINTS, W>) -> Self {
+    /// An idle application (its link side is a [`Session`] of its own).
+    pub const fn new() -> Self {
         App {
-            session: Session::new(ctrl),
             planner: Planner::new(),
             offset: OffsetSpiral::new(),
             slice: None,
@@ -80,86 +89,102 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         }
     }
 
-    /// The link side (controller, status).
-    pub fn session(&self) -> &Session<HOLES, POINTS, W> {
-        &self.session
-    }
-
     /// The machine of the last job, if any.
     pub fn machine(&self) -> Option<&Machine<LOOK_AHEAD>> {
         self.machine.as_ref()
     }
 
     /// Serves the link: handles what arrived (planning a slice, running a job to its end),
-    /// writes what is due; returns the link's next deadline (microseconds).
-    pub fn poll<I: Io, B: Board>(&mut self, io: &mut I, board: &mut B) -> Option<u64> {
-        while let Some(event) = self.session.next_event(io) {
-            self.on_event(event, io, board);
-            self.session.flush(io);
+    /// writes what is due; returns the link's next deadline (microseconds). `link` is the
+    /// application's [`Session`], behind the platform's lock (taken for each call into it,
+    /// never across planning or stepping).
+    pub fn poll<L, I, B>(&mut self, link: &L, io: &mut I, board: &mut B) -> Option<u64>
+    where
+        L: Shared<Session<HOLES, POINTS, W>>,
+        I: Io,
+        B: Board,
+    {
+        while let Some(event) = link.lock(|s| s.next_event(io)) {
+            self.on_event(event, link, io, board);
+            link.lock(|s| s.flush(io));
         }
-        self.session.flush(io)
+        link.lock(|s| s.flush(io))
     }
 
-    fn on_event<I: Io, B: Board>(&mut self, event: Event, io: &mut I, board: &mut B) {
+    fn on_event<L, I, B>(&mut self, event: Event, link: &L, io: &mut I, board: &mut B)
+    where
+        L: Shared<Session<HOLES, POINTS, W>>,
+        I: Io,
+        B: Board,
+    {
         match event {
             Event::SliceReady => {
                 self.planned = false;
                 self.slice = None;
-                self.session.report(Phase::Receiving, 0, 0, 0);
                 // A refusal was already reported to the host by the controller.
-                if let Ok(slice) = self.session.ctrl.finish_slice() {
-                    {
-                        self.session.report(Phase::Planning, 0, 0, 0);
-                        self.session.flush(io);
-                        match self.planner.plan(&slice) {
-                            Ok(plan) => {
-                                let digest = plan.digest();
-                                self.planned = true;
-                                self.session
-                                    .send(CtrlMsg::Telemetry(Telemetry::Plan { digest }));
-                            }
-                            Err(e) => self.session.send(CtrlMsg::Error(RemoteError::Slice(e))),
-                        }
-                        self.slice = Some(slice);
+                let slice = link.lock(|s| {
+                    s.report(Phase::Receiving, 0, 0, 0);
+                    let slice = s.ctrl.finish_slice();
+                    if slice.is_ok() {
+                        s.report(Phase::Planning, 0, 0, 0);
                     }
+                    s.flush(io);
+                    slice
+                });
+                if let Ok(slice) = slice {
+                    // Seconds of work: the platform may serve the link meanwhile.
+                    let outcome = self.planner.plan(&slice).map(|plan| plan.digest());
+                    self.planned = outcome.is_ok();
+                    self.slice = Some(slice);
+                    link.lock(|s| match outcome {
+                        Ok(digest) => s.send(CtrlMsg::Telemetry(Telemetry::Plan { digest })),
+                        Err(e) => s.send(CtrlMsg::Error(RemoteError::Slice(e))),
+                    });
                 }
-                self.session.report(Phase::Idle, 0, 0, 0);
+                link.lock(|s| s.report(Phase::Idle, 0, 0, 0));
             }
-            Event::Start => self.run_job(io, board),
+            Event::Start => self.run_job(link, io, board),
             // Outside a job there is nothing to pause, resume or abort; a stopped machine
             // stays stopped (a new job builds a new one).
-            Event::Pause | Event::Resume | Event::Abort => {
-                let phase = self.session.status.phase;
-                let s = self.session.status;
-                self.session.report(phase, s.layer, s.layers, s.percent);
-            }
+            Event::Pause | Event::Resume | Event::Abort => link.lock(|s| {
+                let st = s.status;
+                s.report(st.phase, st.layer, st.layers, st.percent);
+            }),
             Event::Hello | Event::Printer | Event::Refused(_) => {}
         }
     }
 
     /// Prints the accepted slice on a fresh machine; ends idle, with the outcome reported.
-    fn run_job<I: Io, B: Board>(&mut self, io: &mut I, board: &mut B) {
-        let (Some(slice), true, Some(cfg)) =
-            (&self.slice, self.planned, self.session.ctrl.printer())
-        else {
-            self.session.send(CtrlMsg::Error(RemoteError::Link(
-                LinkError::UnexpectedMessage,
-            )));
+    fn run_job<L, I, B>(&mut self, link: &L, io: &mut I, board: &mut B)
+    where
+        L: Shared<Session<HOLES, POINTS, W>>,
+        I: Io,
+        B: Board,
+    {
+        let cfg = link.lock(|s| s.ctrl.printer().cloned());
+        let (Some(slice), true, Some(cfg)) = (&self.slice, self.planned, cfg) else {
+            link.lock(|s| {
+                s.send(CtrlMsg::Error(RemoteError::Link(
+                    LinkError::UnexpectedMessage,
+                )))
+            });
             return;
         };
-        let layers = self.session.ctrl.layers();
-        let machine = match Machine::new(cfg.clone()) {
+        let layers = link.lock(|s| s.ctrl.layers());
+        let machine = match Machine::new(cfg) {
             Ok(m) => self.machine.insert(m),
             Err(e) => {
-                self.session
-                    .send(CtrlMsg::Error(RemoteError::Printer(e.into())));
+                link.lock(|s| s.send(CtrlMsg::Error(RemoteError::Printer(e.into()))));
                 return;
             }
         };
         let tick_hz = machine.config().tick_hz;
-        self.session.report_on_hello = None;
+        link.lock(|s| {
+            s.report_on_hello = None;
+            s.report(Phase::Homing, 0, layers, 0);
+        });
         let mut run = Run {
-            session: &mut self.session,
+            link,
             io,
             board,
             tick_hz,
@@ -167,15 +192,17 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             served: 0,
             pause_reported: false,
             stopped: None,
+            _session: core::marker::PhantomData,
         };
-        run.session.report(Phase::Homing, 0, layers, 0);
         let mut result = job::home(machine, &mut run);
         let plan = self.planner.last_plan();
         let mut layer = 0u16;
         while result.is_ok() && layer < layers {
             let percent = (layer as u32 * 100 / layers.max(1) as u32) as u8;
-            run.session.report(Phase::Printing, layer, layers, percent);
-            run.session.flush(run.io);
+            link.lock(|s| {
+                s.report(Phase::Printing, layer, layers, percent);
+                s.flush(run.io);
+            });
             match job::print_layer(
                 slice,
                 plan,
@@ -186,15 +213,14 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             ) {
                 Ok(c) => {
                     let t = LayerTelemetry::from_counters(layer, &c);
-                    run.session.send(CtrlMsg::Telemetry(Telemetry::Layer(t)));
+                    link.lock(|s| s.send(CtrlMsg::Telemetry(Telemetry::Layer(t))));
                     layer += 1;
                 }
                 Err(e) => result = Err(e),
             }
         }
-        let session = run.session;
         match result {
-            Ok(()) => session.report(Phase::Done, layers, layers, 100),
+            Ok(()) => link.lock(|s| s.report(Phase::Done, layers, layers, 100)),
             Err(e) => {
                 // Valves first: a stopped machine already closed them; anything else
                 // (a path the core could not build, a refused move) stops it here.
@@ -213,30 +239,38 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                     LayerError::Path(err) => RemoteError::Slice(err),
                     _ => RemoteError::Machine(fault),
                 };
-                let (at_us, heard_us) = run
-                    .stopped
-                    .unwrap_or_else(|| (run.io.now_us(), session.ctrl.last_heard()));
-                let stop = StopReport {
-                    fault,
-                    layer,
-                    at_us,
-                    heard_us,
-                    watchdog_us: session.ctrl.link_config().watchdog_us,
-                    steps: machine.counters().steps,
-                };
-                session.report_on_hello = Some(stop);
-                session.send(CtrlMsg::Error(why));
-                session.send(CtrlMsg::Stopped(stop));
-                session.report(phase, layer, layers, percent);
+                let now = run.io.now_us();
+                let steps = machine.counters().steps;
+                link.lock(|s| {
+                    let (at_us, heard_us) = run.stopped.unwrap_or((now, s.ctrl.last_heard()));
+                    let stop = StopReport {
+                        fault,
+                        layer,
+                        at_us,
+                        heard_us,
+                        watchdog_us: s.ctrl.link_config().watchdog_us,
+                        steps,
+                    };
+                    s.report_on_hello = Some(stop);
+                    s.send(CtrlMsg::Error(why));
+                    s.send(CtrlMsg::Stopped(stop));
+                    s.report(phase, layer, layers, percent);
+                });
             }
         }
-        session.flush(run.io);
+        link.lock(|s| s.flush(run.io));
+    }
+}
+
+impl<const HOLES: usize, const POINTS: usize, const W: usize> Default for App<HOLES, POINTS, W> {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
 /// The step interrupt of a job, with the link served between deadlines.
-struct Run<'a, I, B, const HOLES: usize, const POINTS: usize, const W: usize> {
-    session: &'a mut Session<HOLES, POINTS, W>,
+struct Run<'a, L, I, B, S> {
+    link: &'a L,
     io: &'a mut I,
     board: &'a mut B,
     tick_hz: u32,
@@ -248,16 +282,21 @@ struct Run<'a, I, B, const HOLES: usize, const POINTS: usize, const W: usize> {
     /// When the machine was stopped from the link (abort, host silence), and when the
     /// host was last heard then.
     stopped: Option<(u64, Option<u64>)>,
+    _session: core::marker::PhantomData<S>,
 }
 
-impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
-    Run<'_, I, B, HOLES, POINTS, W>
+impl<L, I, B, const HOLES: usize, const POINTS: usize, const W: usize>
+    Run<'_, L, I, B, Session<HOLES, POINTS, W>>
+where
+    L: Shared<Session<HOLES, POINTS, W>>,
+    I: Io,
+    B: Board,
 {
     /// Serves the link: pause, resume and abort act on the machine; silence past the
     /// watchdog stops it.
     fn serve(&mut self, machine: &mut Machine<LOOK_AHEAD>, now: u64) -> Option<u64> {
         self.served = now;
-        while let Some(event) = self.session.next_event(self.io) {
+        while let Some(event) = self.link.lock(|s| s.next_event(self.io)) {
             match event {
                 Event::Pause => machine.pause(),
                 Event::Resume => {
@@ -265,41 +304,49 @@ impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize>
                         machine.resume();
                         self.deadline = None;
                         self.pause_reported = false;
-                        let s = self.session.status;
-                        self.session
-                            .report(Phase::Printing, s.layer, s.layers, s.percent);
+                        self.link.lock(|s| {
+                            let st = s.status;
+                            s.report(Phase::Printing, st.layer, st.layers, st.percent);
+                        });
                     }
                 }
                 Event::Abort => {
                     machine.abort(self.board);
                     self.stop_at(now);
                 }
-                Event::Start => self.session.send(CtrlMsg::Error(RemoteError::Link(
-                    LinkError::UnexpectedMessage,
-                ))),
+                Event::Start => self.link.lock(|s| {
+                    s.send(CtrlMsg::Error(RemoteError::Link(
+                        LinkError::UnexpectedMessage,
+                    )))
+                }),
                 // A slice uploaded mid-job waits for the job's end (the controller takes
                 // nothing more until then).
                 Event::SliceReady | Event::Hello | Event::Printer | Event::Refused(_) => {}
             }
         }
         let now = self.io.now_us();
-        if self.session.ctrl.is_lost(now) {
+        if self.link.lock(|s| s.ctrl.is_lost(now)) {
             machine.shutdown(self.board, Fault::HostSilent);
             self.stop_at(now);
         }
-        self.session.flush(self.io)
+        self.link.lock(|s| s.flush(self.io))
     }
 
     /// Notes the first stop's time and the host's last frame before it.
     fn stop_at(&mut self, now: u64) {
         if self.stopped.is_none() {
-            self.stopped = Some((now, self.session.ctrl.last_heard()));
+            let heard = self.link.lock(|s| s.ctrl.last_heard());
+            self.stopped = Some((now, heard));
         }
     }
 }
 
-impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize> Drive<LOOK_AHEAD>
-    for Run<'_, I, B, HOLES, POINTS, W>
+impl<L, I, B, const HOLES: usize, const POINTS: usize, const W: usize> Drive<LOOK_AHEAD>
+    for Run<'_, L, I, B, Session<HOLES, POINTS, W>>
+where
+    L: Shared<Session<HOLES, POINTS, W>>,
+    I: Io,
+    B: Board,
 {
     type Stop = Fault;
 
@@ -314,10 +361,11 @@ impl<I: Io, B: Board, const HOLES: usize, const POINTS: usize, const W: usize> D
                 State::Paused => {
                     if !self.pause_reported {
                         self.pause_reported = true;
-                        let s = self.session.status;
-                        self.session
-                            .report(Phase::Paused, s.layer, s.layers, s.percent);
-                        self.session.flush(self.io);
+                        self.link.lock(|s| {
+                            let st = s.status;
+                            s.report(Phase::Paused, st.layer, st.layers, st.percent);
+                            s.flush(self.io);
+                        });
                     }
                     self.serve(machine, now);
                     if machine.state() == State::Paused {

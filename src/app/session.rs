@@ -1,10 +1,19 @@
 //! The application's side of the link: the [`Controller`], the bytes it has not consumed
-//! yet, the messages waiting for room in the send window, and the job's status.
+//! yet, the events it decoded and the application has not taken yet, the messages waiting
+//! for room in the send window, and the job's status.
+//!
+//! A session can be served from two places: the application's own loop
+//! ([`next_event`](Session::next_event), [`flush`](Session::flush)) and, on a controller,
+//! an interrupt ([`serve`](Session::serve)) that keeps the link answering (acks,
+//! retransmissions, the host's messages decoded into [`events`](Session::has_events))
+//! while the application plans or builds a layer for seconds. The platform keeps the
+//! session behind a lock ([`Shared`](super::shared::Shared)) that both take.
 
 use heapless::Deque;
 
 use crate::link::controller::{Controller, Event};
-use crate::link::message::{CtrlMsg, Phase, Status, StopReport};
+use crate::link::error::LinkError;
+use crate::link::message::{CtrlMsg, Phase, RemoteError, Status, StopReport};
 
 use super::io::Io;
 
@@ -14,6 +23,11 @@ pub const OUTBOX: usize = 16;
 /// Bytes read from the stream at a time.
 const RX: usize = 128;
 
+/// Events decoded and not taken by the application yet. While it is full, no more bytes
+/// are consumed (they wait in the platform's receive buffer, or the link retransmits), so
+/// no event is ever dropped.
+pub const EVENTS: usize = 8;
+
 /// The link side of the application (see the module docs).
 pub struct Session<const HOLES: usize, const POINTS: usize, const W: usize> {
     /// The controller's end of the link.
@@ -21,6 +35,7 @@ pub struct Session<const HOLES: usize, const POINTS: usize, const W: usize> {
     rx: [u8; RX],
     rx_start: usize,
     rx_end: usize,
+    events: Deque<Event, EVENTS>,
     outbox: Deque<CtrlMsg, OUTBOX>,
     /// Messages dropped because the outbox was full (statuses first).
     pub dropped: u32,
@@ -39,6 +54,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POI
             rx: [0; RX],
             rx_start: 0,
             rx_end: 0,
+            events: Deque::new(),
             outbox: Deque::new(),
             dropped: 0,
             status: Status {
@@ -51,8 +67,46 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Session<HOLES, POI
         }
     }
 
-    /// The next event from the bytes that arrived, reading more when all were consumed.
+    /// The next event: the oldest one decoded already, else the next from the bytes that
+    /// arrived (reading more when all were consumed).
     pub fn next_event<I: Io>(&mut self, io: &mut I) -> Option<Event> {
+        if let Some(e) = self.events.pop_front() {
+            return Some(e);
+        }
+        self.decode(io)
+    }
+
+    /// Whether events wait for the application ([`next_event`](Self::next_event)).
+    pub fn has_events(&self) -> bool {
+        !self.events.is_empty()
+    }
+
+    /// Serves the link from outside the application's loop (a controller's receive or
+    /// timer interrupt): decodes what arrived into the event queue (until it is full),
+    /// moves queued messages into the window, runs the timers and writes what is due; the
+    /// link's next deadline.
+    pub fn serve<I: Io>(&mut self, io: &mut I) -> Option<u64> {
+        while !self.events.is_full() {
+            let Some(e) = self.decode(io) else { break };
+            // Room checked above: cannot fail.
+            if let Err(e) = self.events.push_back(e) {
+                self.events_lost(e);
+            }
+        }
+        self.flush(io)
+    }
+
+    /// An event that found no room (unreachable: [`serve`](Self::serve) checks first).
+    /// The host is told its message was not taken, so nothing passes silently.
+    fn events_lost(&mut self, _e: Event) {
+        self.dropped += 1;
+        self.send(CtrlMsg::Error(RemoteError::Link(
+            LinkError::UnexpectedMessage,
+        )));
+    }
+
+    /// The next event from the bytes that arrived, reading more when all were consumed.
+    fn decode<I: Io>(&mut self, io: &mut I) -> Option<Event> {
         let now = io.now_us();
         loop {
             if self.rx_start == self.rx_end {

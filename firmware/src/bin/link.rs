@@ -10,7 +10,10 @@
 //!
 //! The clock is the SysTick (25 MHz, its wraps counted); a step deadline arms timer 0 and
 //! the core sleeps (`wfi`) until it or a received byte, so QEMU's `-icount sleep=off` jumps
-//! the idle time. Waiting for the host it sleeps until a byte arrives and arms no timer: the
+//! the idle time. The link's [`Session`] lives in its own static behind a critical-section
+//! mutex: the UART's receive interrupt serves it (acks, replies, the host's messages
+//! decoded into events), so the link keeps answering while the application plans a slice
+//! or builds a layer, seconds in which its loop reads no byte. Waiting for the host it sleeps until a byte arrives and arms no timer: the
 //! link's own timers run when the host's next byte (its keep-alive) wakes it, so an idle
 //! firmware does not race through emulated time sending retransmissions. The printer's pins
 //! are counted in memory (`link_board`). Semihosting prints one line at start and one per
@@ -18,12 +21,15 @@
 #![no_std]
 #![no_main]
 
+use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
+
+use critical_section::Mutex;
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hprintln};
-use hollowpath::app::{App, Io};
+use hollowpath::app::{App, Io, Session, Shared};
 use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
@@ -44,7 +50,7 @@ const BAUD: u32 = 115_200;
 /// the host's keep-alives, a few wall milliseconds apart, are emulated seconds apart: the
 /// watchdog allows 30 s. No keep-alive of our own (acks answer every frame; the host keeps
 /// no watchdog).
-const LINK: LinkConfig = LinkConfig {
+const LINK_CONFIG: LinkConfig = LinkConfig {
     retransmit_us: 2_000_000,
     keepalive_us: 0,
     watchdog_us: 30_000_000,
@@ -56,11 +62,49 @@ const FIRMWARE: Version = Version {
     patch: 0,
 };
 
-type FwApp = App<MAX_HOLES, { (MAX_HOLES + 1) * MAX_VERTICES }, 4>;
+const POINTS: usize = (MAX_HOLES + 1) * MAX_VERTICES;
+type FwApp = App<MAX_HOLES, POINTS, 4>;
+type FwSession = Session<MAX_HOLES, POINTS, 4>;
 
-/// The application (planner, offset spiral, slice assembler, machine), in a static.
-static APP: ConstStaticCell<FwApp> =
-    ConstStaticCell::new(App::new(Controller::new(LINK, FIRMWARE)));
+/// The application (planner, offset spiral, machine), in a static.
+static APP: ConstStaticCell<FwApp> = ConstStaticCell::new(App::new());
+
+/// The link side (controller, slice assembler, events, outbox), shared by the
+/// application's loop and the receive interrupt.
+static LINK: Link = Link(Mutex::new(RefCell::new(Session::new(Controller::new(
+    LINK_CONFIG,
+    FIRMWARE,
+)))));
+
+/// The session behind a critical section (interrupts masked while a call into it runs:
+/// none takes longer than building a slice that arrived whole).
+struct Link(Mutex<RefCell<FwSession>>);
+
+impl Shared<FwSession> for Link {
+    fn lock<R>(&self, f: impl FnOnce(&mut FwSession) -> R) -> R {
+        critical_section::with(|cs| f(&mut self.0.borrow_ref_mut(cs)))
+    }
+}
+
+/// Sleeps (`wfi`) until the next interrupt unless `ready()`; whether it was ready. The
+/// check runs with interrupts masked, so an interrupt that makes it true between the check
+/// and the `wfi` still ends the sleep (a pending interrupt wakes `wfi` even while masked).
+fn sleep_unless(ready: fn() -> bool) -> bool {
+    cortex_m::interrupt::disable();
+    let r = ready();
+    if !r {
+        cortex_m::asm::wfi();
+    }
+    // SAFETY: unmasks what `disable` masked above; no critical section is open across this
+    // function (`ready` opens and closes its own), so nothing relies on them staying masked.
+    unsafe { cortex_m::interrupt::enable() };
+    r
+}
+
+/// Whether the link has events for the application (or bytes not yet decoded).
+fn link_pending() -> bool {
+    mps2::rx_pending() || LINK.lock(|s| s.has_events())
+}
 
 /// SysTick wraps (each 2^24 ticks).
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -75,7 +119,11 @@ fn SysTick() {
 #[exception]
 unsafe fn DefaultHandler(irqn: i16) {
     match irqn {
-        0 => mps2::on_rx(),
+        0 => {
+            mps2::on_rx();
+            // Serve the link here too: the application may be planning for seconds.
+            LINK.lock(|s| s.serve(&mut Mps2));
+        }
         8 => mps2::on_timer(),
         _ => {}
     }
@@ -116,20 +164,16 @@ impl Io for Mps2 {
         match until {
             None => {
                 // Until the host's next byte (SysTick wraps wake us on the way).
-                while !mps2::rx_pending() {
-                    cortex_m::asm::wfi();
-                }
+                while !sleep_unless(link_pending) {}
             }
             Some(t) => {
                 let now = self.now_us();
-                if t <= now || mps2::rx_pending() {
+                if t <= now || link_pending() {
                     return;
                 }
                 let ticks = (t - now).min(1_000_000) as u32 * (mps2::CLOCK_HZ / 1_000_000);
                 mps2::wake_in(ticks);
-                while self.now_us() < t && !mps2::rx_pending() {
-                    cortex_m::asm::wfi();
-                }
+                while self.now_us() < t && !sleep_unless(link_pending) {}
                 mps2::cancel_wake();
             }
         }
@@ -157,7 +201,7 @@ fn main() -> ! {
     );
     let mut jobs = 0u32;
     loop {
-        app.poll(&mut io, &mut board);
+        app.poll(&LINK, &mut io, &mut board);
         if let Some(m) = app.machine() {
             let c = m.counters();
             let n = c.steps.iter().sum::<u64>() as u32;
