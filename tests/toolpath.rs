@@ -344,3 +344,39 @@ fn a_slice_without_holes_is_one_offset_spiral_road_and_the_mcl_layers_refuse_it(
     work.build(&slice, plan, &mut *again).unwrap();
     assert!(path.iter().eq(again.iter()));
 }
+
+/// The spiral's loops and joins are prepared once per slice: a second build of the same
+/// slice lays the same path bit for bit, and another slice (here the same contours at
+/// another road width) is prepared anew, never walked on the first slice's loops.
+#[test]
+fn offset_spiral_prepared_once_lays_the_same_path_and_a_new_slice_is_prepared_anew() {
+    let fresh = |slice: &hollowpath::Slice| {
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(slice).unwrap();
+        let mut work = Box::new(OffsetSpiral::new());
+        let mut path = Box::new(Path::new());
+        work.build(slice, plan, &mut *path).unwrap();
+        path
+    };
+    let a = two_circles(Settings::default());
+    let b = two_circles(Settings::for_road_width(0.3));
+    let (want_a, want_b) = (fresh(&a), fresh(&b));
+    assert_ne!(want_a.len(), want_b.len());
+
+    let mut planner = Box::new(Planner::new());
+    let mut work = Box::new(OffsetSpiral::new());
+    let plan = planner.plan(&a).unwrap();
+    let prepared = work.prepare(&a).unwrap();
+    for _ in 0..2 {
+        let mut path = Box::new(Path::new());
+        let stats = work.build(&a, plan, &mut *path).unwrap();
+        assert_eq!(stats.loops, prepared.loops);
+        assert_eq!(path.len(), want_a.len());
+        assert!(path.iter().zip(want_a.iter()).all(|(p, q)| p == q));
+    }
+    let plan = planner.plan(&b).unwrap();
+    let mut path = Box::new(Path::new());
+    work.build(&b, plan, &mut *path).unwrap();
+    assert_eq!(path.len(), want_b.len());
+    assert!(path.iter().zip(want_b.iter()).all(|(p, q)| p == q));
+}

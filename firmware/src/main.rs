@@ -234,12 +234,28 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
         sink.digest(),
         stats.jumps
     );
+    // The next spiral layer of the job: its loops and joins are prepared already, so only
+    // the walk runs (and it must lay the same path).
+    let first = (sink.len(), sink.digest());
+    let mut sink = DigestSink::new();
+    let t8 = ticks();
+    offset
+        .build(&slice, plan, &mut sink)
+        .unwrap_or_else(|e| fail("offset spiral, prepared", e));
+    let t9 = ticks();
+    if (sink.len(), sink.digest()) != first {
+        fail(
+            "offset spiral, prepared",
+            "another path than the first build's",
+        );
+    }
     for (phase, t) in [
         ("validate", t1 - t0),
         ("plan", t2 - t1),
         ("verify", t3 - t2),
         ("zigzag", t5 - t4),
         ("offset_spiral", t7 - t6),
+        ("offset_spiral_prepared", t9 - t8),
     ] {
         hprintln!("bench {} {} {}", phase, name, t * INSNS_PER_TICK);
     }

@@ -54,7 +54,14 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
                 "no `{expect}` in:\n{out}"
             );
         }
-        for phase in ["validate", "plan", "verify", "zigzag", "offset_spiral"] {
+        for phase in [
+            "validate",
+            "plan",
+            "verify",
+            "zigzag",
+            "offset_spiral",
+            "offset_spiral_prepared",
+        ] {
             let line = format!("bench {phase} {name} ");
             let n: u64 = out
                 .lines()

@@ -11,7 +11,9 @@
 //! * A slice arrives through the controller's assembler and is built and validated there;
 //!   a bad slice comes back to the host as the core's typed error and the application stays
 //!   idle. A good one is planned once ([`Planner`]) and its digest reported
-//!   ([`Telemetry::Plan`]).
+//!   ([`Telemetry::Plan`]); then the offset spiral's loops and joins are prepared
+//!   ([`OffsetSpiral::prepare`]), so that no spiral layer starts with that work (every odd
+//!   layer of the job walks the same loops).
 //! * `Start` prints the job on a fresh [`Machine`] for the accepted printer: homing, then
 //!   layer after layer on the same machine, z rising, each layer's path streamed straight
 //!   into the machine ([`job::print_layer`], the routine the host's `simulate` counts its
@@ -135,11 +137,21 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                     // Seconds of work: the platform may serve the link meanwhile.
                     let outcome = self.planner.plan(&slice).map(|plan| plan.digest());
                     self.planned = outcome.is_ok();
-                    self.slice = Some(slice);
-                    link.lock(|s| match outcome {
-                        Ok(digest) => s.send(CtrlMsg::Telemetry(Telemetry::Plan { digest })),
-                        Err(e) => s.send(CtrlMsg::Error(RemoteError::Slice(e))),
+                    link.lock(|s| {
+                        match outcome {
+                            Ok(digest) => s.send(CtrlMsg::Telemetry(Telemetry::Plan { digest })),
+                            Err(e) => s.send(CtrlMsg::Error(RemoteError::Slice(e))),
+                        }
+                        s.flush(io);
                     });
+                    if self.planned {
+                        // The spiral layers' loops and joins now, not between layers 0 and
+                        // 1 (where the nozzle would wait). A slice whose spiral cannot be
+                        // prepared fails at its first spiral layer with that error (a
+                        // one-layer job never needs it).
+                        let _spiral_ready = self.offset.prepare(&slice).is_ok();
+                    }
+                    self.slice = Some(slice);
                 }
                 link.lock(|s| s.report(Phase::Idle, 0, 0, 0));
             }

@@ -28,10 +28,11 @@ use super::despike::{finish, Despike};
 use heapless::Vec;
 
 use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
+use crate::digest::Fnv;
 use crate::geometry::{polygon, Grid, Point};
 use crate::toolpath::composition::BlendedField;
 use crate::toolpath::{emit_move, PathSink, Vertex};
-use crate::{Error, Limit, Material, Plan, Slice};
+use crate::{Error, Limit, Material, Plan, Settings, Slice};
 
 /// How far beyond the keep-out curve the first turn lies, mm: the chords of a turn may cut
 /// that far into it without touching a feature's keep-out band.
@@ -176,6 +177,35 @@ pub struct OffsetSpiral {
     queue: Vec<u16, MAX_LOOPS>,
     /// The bridge gaps [`find_site`](Self::find_site) tries: a tail of [`BRIDGE_GAPS`].
     gaps: &'static [f32],
+    /// The slice the loops and joins above were prepared for (its [`Prepared`] key) and
+    /// the figures of that preparation: [`build`](Self::build) on the same slice again
+    /// only walks them.
+    prepared: Option<(Prepared, OffsetStats)>,
+}
+
+/// What the preparation of a slice's loops and joins depends on: its contours (as IEEE
+/// bits) and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Prepared {
+    digest: u64,
+    settings: Settings,
+}
+
+impl Prepared {
+    fn of(slice: &Slice) -> Prepared {
+        let mut h = Fnv::new();
+        for f in core::iter::once(slice.wall()).chain(slice.holes().iter()) {
+            // At most MAX_VERTICES points a contour (asserted in `config`).
+            h.word(f.points().len() as u32);
+            for &p in f.points() {
+                h.point(p);
+            }
+        }
+        Prepared {
+            digest: h.finish(),
+            settings: *slice.settings(),
+        }
+    }
 }
 
 impl Default for OffsetSpiral {
@@ -442,24 +472,44 @@ impl OffsetSpiral {
             stack: Vec::new(),
             queue: Vec::new(),
             gaps: &BRIDGE_GAPS,
+            prepared: None,
         }
     }
 
     /// Writes the offset-spiral layer of `slice` into `sink`, with the composition of
-    /// `plan`'s blended field.
+    /// `plan`'s blended field. The loops and joins are [`prepare`](Self::prepare)d first,
+    /// unless they already were for this slice (every odd layer of a job walks the same
+    /// ones): then the first vertex comes without that work.
     pub fn build(
         &mut self,
         slice: &Slice,
         plan: &Plan,
         sink: &mut impl PathSink,
     ) -> Result<OffsetStats, Error> {
+        let mut stats = self.prepare(slice)?;
+        let mut despiked = Despike::new(sink, slice.settings().road_width);
+        self.walk_all(slice, plan, &mut despiked, &mut stats)?;
+        finish(&mut despiked)?;
+        Ok(stats)
+    }
+
+    /// Samples the distance field, traces its loops and joins them (all the layer's work
+    /// before its first vertex), unless that was done for this very slice already; the
+    /// figures of the preparation. A controller calls it after planning, so that the
+    /// spiral layers start at once.
+    pub fn prepare(&mut self, slice: &Slice) -> Result<OffsetStats, Error> {
+        let key = Prepared::of(slice);
+        if let Some((k, stats)) = self.prepared {
+            if k == key {
+                return Ok(stats);
+            }
+        }
+        self.prepared = None;
         let mut stats = OffsetStats::default();
         self.sample(slice)?;
         self.trace_all(slice, &mut stats)?;
         self.join(slice, &mut stats)?;
-        let mut despiked = Despike::new(sink, slice.settings().road_width);
-        self.walk_all(slice, plan, &mut despiked, &mut stats)?;
-        finish(&mut despiked)?;
+        self.prepared = Some((key, stats));
         Ok(stats)
     }
 
