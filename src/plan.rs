@@ -216,8 +216,8 @@ impl Planner {
             &mut self.scratch,
             &mut plan.stats,
         )?;
-        matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
-        relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats);
+        matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats)?;
+        relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats)?;
         sanitize(slice, &mut plan.halves, &mut plan.stats);
         // Compact the halves (remapping partners), then list the MCLs.
         let mut remap: Vec<u16, MAX_HALVES> = Vec::new();

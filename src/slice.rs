@@ -136,8 +136,8 @@ impl Feature {
             let closing = pts[end % n];
             b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
             b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
-            // Cannot fail: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
-            let _ = chunks.push(b);
+            // Never full: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
+            chunks.push(b).map_err(|_| Limit::Vertices.error())?;
         }
         Ok(Feature {
             id,
@@ -199,8 +199,9 @@ impl Feature {
             };
             let mut pts: Vec<Point, MAX_VERTICES> = Vec::new();
             for &k in kept.iter() {
-                // Cannot fail: `kept` has the same capacity.
-                let _ = pts.push(points[k as usize]);
+                // Never full: `kept` has the same capacity.
+                pts.push(points[k as usize])
+                    .map_err(|_| Limit::Vertices.error())?;
             }
             match Feature::new(id, &pts, material) {
                 Err(
@@ -627,8 +628,8 @@ impl Slice {
             let mut built: Vec<Feature, MAX_HOLES> = Vec::new();
             for (i, &(pts, m)) in holes.iter().enumerate() {
                 let f = Feature::simplified(FeatureId::Hole(i as u8), pts, m, tols[i])?;
-                // Cannot fail: `holes.len() <= MAX_HOLES` was checked.
-                let _ = built.push(f);
+                // Never full: `holes.len() <= MAX_HOLES` was checked.
+                built.push(f).map_err(|_| Limit::Holes.error())?;
             }
             let e = match Slice::new(w, &built, settings) {
                 Ok(slice) => return Ok(slice),

@@ -127,7 +127,7 @@ fn p_star_is_the_objective_weighted_point_of_equation_2_3() {
                 Some((polyline::project(&bis, p).0, f))
             })
             .collect();
-        match_all(&slice, &cells, &mut plan.halves, &mut stats);
+        match_all(&slice, &cells, &mut plan.halves, &mut stats).unwrap();
         assert!(stats.matched_pairs > 20);
         let mut checked = 0;
         for (x, h) in plan.halves.iter().enumerate() {

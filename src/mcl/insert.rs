@@ -61,7 +61,7 @@ pub fn insert(
             )?;
         }
         for depth in 1..=MAX_REFINE_DEPTH {
-            let order = sorted_halves(halves, i);
+            let order = sorted_halves(halves, i)?;
             let mut added = false;
             for k in 0..order.len() {
                 let (sa, ea) = (
@@ -96,7 +96,7 @@ pub fn insert(
             }
         }
         // Safety net: neighbours must not cross.
-        let order = sorted_halves(halves, i);
+        let order = sorted_halves(halves, i)?;
         for k in 0..order.len() {
             let (ia, ib) = (order[k] as usize, order[(k + 1) % order.len()] as usize);
             if ia == ib || !halves[ia].alive || !halves[ib].alive {
@@ -118,12 +118,15 @@ pub fn insert(
 }
 
 /// Indices of the halves of hole `i`, sorted by their start parameter.
-pub fn sorted_halves(halves: &Vec<Half, MAX_HALVES>, i: usize) -> Vec<u16, MAX_HALVES> {
+pub fn sorted_halves(
+    halves: &Vec<Half, MAX_HALVES>,
+    i: usize,
+) -> Result<Vec<u16, MAX_HALVES>, Error> {
     let mut order: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         if h.hole as usize == i && h.alive {
-            // Cannot fail: at most one per half, and `halves` has the same capacity.
-            let _ = order.push(k as u16);
+            // Never full: at most one per half, and `halves` has the same capacity.
+            order.push(k as u16).map_err(|_| Limit::Halves.error())?;
         }
     }
     order.sort_unstable_by(|&a, &b| {
@@ -132,7 +135,7 @@ pub fn sorted_halves(halves: &Vec<Half, MAX_HALVES>, i: usize) -> Vec<u16, MAX_H
             .total_cmp(&halves[b as usize].s)
             .then(a.cmp(&b))
     });
-    order
+    Ok(order)
 }
 
 /// Indices of all halves, sorted by hole and start parameter.

@@ -21,6 +21,7 @@ use heapless::Vec;
 
 use crate::cells::{away_from_hole, onto_bisector, Cells};
 use crate::config::{HALF_POINTS, MAX_HALVES, MCL_POINTS};
+use crate::error::{Error, Limit};
 use crate::geometry::{polyline, Point};
 use crate::mcl::{Half, HalfEnd};
 use crate::plan::PlanStats;
@@ -66,7 +67,7 @@ pub fn match_all(
     cells: &Cells,
     halves: &mut Vec<Half, MAX_HALVES>,
     stats: &mut PlanStats,
-) {
+) -> Result<(), Error> {
     let settings = *slice.settings();
     // Put every bisector end on its bisector piece.
     for h in halves.iter_mut() {
@@ -115,13 +116,15 @@ pub fn match_all(
                 settings.w_d,
             );
             // Cannot fail: at most one candidate per half, and `halves` has the same capacity.
-            let _ = cands.push(Candidate {
-                half: idx as u16,
-                side_a,
-                u,
-                f,
-                done: false,
-            });
+            cands
+                .push(Candidate {
+                    half: idx as u16,
+                    side_a,
+                    u,
+                    f,
+                    done: false,
+                })
+                .map_err(|_| Limit::Halves.error())?;
         }
         let mut matches: Vec<Match, MAX_HALVES> = Vec::new();
         loop {
@@ -138,8 +141,10 @@ pub fn match_all(
             // Candidates of the other cell, nearest first along the bisector.
             let mut chosen = None;
             let mut tried: Vec<bool, MAX_HALVES> = Vec::new();
-            // Cannot fail: `cands` has the same capacity.
-            let _ = tried.resize(cands.len(), false);
+            // Never full: `cands` has the same capacity.
+            tried
+                .resize(cands.len(), false)
+                .map_err(|_| Limit::Halves.error())?;
             loop {
                 let mut near: Option<usize> = None;
                 for (c, o) in cands.iter().enumerate() {
@@ -180,8 +185,10 @@ pub fn match_all(
                 );
                 if try_join(halves, me.half as usize, other.half as usize, pstar) {
                     chosen = Some(c);
-                    // Cannot fail: a match uses up two candidates (of the same capacity).
-                    let _ = matches.push(Match { ua, ub, ustar });
+                    // Never full: a match uses up two candidates (of the same capacity).
+                    matches
+                        .push(Match { ua, ub, ustar })
+                        .map_err(|_| Limit::Halves.error())?;
                     let (x, y) = (me.half as usize, other.half as usize);
                     halves[x].on_bisector = Some((k as u8, ustar));
                     halves[y].on_bisector = Some((k as u8, ustar));
@@ -207,6 +214,7 @@ pub fn match_all(
             stats.removed_unmatched += 1;
         }
     }
+    Ok(())
 }
 
 /// Rebuilds halves `x` and `y` to meet at `pstar`, unless that makes them cross a finished

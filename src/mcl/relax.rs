@@ -13,6 +13,7 @@ use heapless::Vec;
 
 use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
+use crate::error::{Error, Limit};
 use crate::geometry::{polygon, polyline, Point};
 use crate::mcl::insert::sorted_halves;
 use crate::mcl::matching::crosses_finished;
@@ -21,7 +22,7 @@ use crate::plan::PlanStats;
 use crate::Slice;
 
 /// One end: the half that carries it (the lower index of a pair).
-fn ends(halves: &Vec<Half, MAX_HALVES>) -> Vec<u16, MAX_HALVES> {
+fn ends(halves: &Vec<Half, MAX_HALVES>) -> Result<Vec<u16, MAX_HALVES>, Error> {
     let mut out: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         let carrier = match h.partner {
@@ -29,26 +30,30 @@ fn ends(halves: &Vec<Half, MAX_HALVES>) -> Vec<u16, MAX_HALVES> {
             None => h.end == HalfEnd::Wall,
         };
         if h.alive && carrier {
-            // Cannot fail: at most one per half, and `halves` has the same capacity.
-            let _ = out.push(k as u16);
+            // Never full: at most one per half, and `halves` has the same capacity.
+            out.push(k as u16).map_err(|_| Limit::Halves.error())?;
         }
     }
-    out
+    Ok(out)
 }
 
 /// For every half, the halves before and after it around its hole (by start parameter).
-fn ring_neighbours(halves: &Vec<Half, MAX_HALVES>, holes: usize) -> Vec<(u16, u16), MAX_HALVES> {
+fn ring_neighbours(
+    halves: &Vec<Half, MAX_HALVES>,
+    holes: usize,
+) -> Result<Vec<(u16, u16), MAX_HALVES>, Error> {
     let mut out: Vec<(u16, u16), MAX_HALVES> = Vec::new();
-    // Cannot fail: `halves` has the same capacity.
-    let _ = out.resize(halves.len(), (0, 0));
+    // Never full: `halves` has the same capacity.
+    out.resize(halves.len(), (0, 0))
+        .map_err(|_| Limit::Halves.error())?;
     for i in 0..holes {
-        let order = sorted_halves(halves, i);
+        let order = sorted_halves(halves, i)?;
         let n = order.len();
         for k in 0..n {
             out[order[k] as usize] = (order[(k + n - 1) % n], order[(k + 1) % n]);
         }
     }
-    out
+    Ok(out)
 }
 
 /// Relaxes and thins the ends of `halves`.
@@ -57,18 +62,20 @@ pub fn relax(
     cells: &Cells,
     halves: &mut Vec<Half, MAX_HALVES>,
     stats: &mut PlanStats,
-) {
+) -> Result<(), Error> {
     let settings = *slice.settings();
     let spacing = settings.relax_spacing;
-    let ring = ring_neighbours(halves, slice.holes().len());
+    let ring = ring_neighbours(halves, slice.holes().len())?;
     for _ in 0..settings.relax_iterations {
         // Jacobi-style: every step is computed from the same state, then applied, so the
         // result does not depend on the order of the ends (symmetric slices stay symmetric).
-        let list = ends(halves);
+        let list = ends(halves)?;
         let mut steps: Vec<Point, MAX_HALVES> = Vec::new();
         for &e in list.iter() {
-            // Cannot fail: one step per end, and `list` has the same capacity.
-            let _ = steps.push(relax_step(halves, &ring, &list, e as usize, spacing));
+            // Never full: one step per end, and `list` has the same capacity.
+            steps
+                .push(relax_step(halves, &ring, &list, e as usize, spacing))
+                .map_err(|_| Limit::Halves.error())?;
         }
         let mut moved = false;
         for (&e, &step) in list.iter().zip(steps.iter()) {
@@ -83,7 +90,7 @@ pub fn relax(
     }
     // Thinning: remove the most crowded end until no two ends are closer than the spacing.
     loop {
-        let list = ends(halves);
+        let list = ends(halves)?;
         let mut worst: Option<(usize, usize)> = None;
         for &e in list.iter() {
             let here = halves[e as usize].end_point();
@@ -102,6 +109,7 @@ pub fn relax(
         }
         stats.thinned += 1;
     }
+    Ok(())
 }
 
 /// The relaxation step of end `e`: towards the middle of its neighbours around the hole(s) it

@@ -1025,8 +1025,10 @@ impl OffsetSpiral {
         stats: &mut OffsetStats,
     ) -> Result<(), Error> {
         self.queue.clear();
-        // Cannot fail: the queue was just emptied.
-        let _ = self.queue.push(start as u16);
+        // Never full: the queue was just emptied.
+        self.queue
+            .push(start as u16)
+            .map_err(|_| Limit::ContourLoops.error())?;
         let mut head = 0;
         while head < self.queue.len() {
             let l = self.queue[head] as usize;
@@ -1247,13 +1249,15 @@ impl OffsetSpiral {
             )?;
             self.stack.clear();
             // Cannot fail: the stack was just emptied.
-            let _ = self.stack.push(Frame {
-                lp: root as u16,
-                pos: s0,
-                forward: true,
-                remaining: len,
-                entered_by: NONE,
-            });
+            self.stack
+                .push(Frame {
+                    lp: root as u16,
+                    pos: s0,
+                    forward: true,
+                    remaining: len,
+                    entered_by: NONE,
+                })
+                .map_err(|_| Limit::ContourLoops.error())?;
             while let Some(top) = self.stack.last().copied() {
                 let l = top.lp as usize;
                 let len = self.loops[l].length;

@@ -108,8 +108,9 @@ pub fn raster(
     // Link runs greedily: from the current end to the nearest free run end; deposit the link
     // when it is short and stays in the region, else travel.
     let mut used: heapless::Vec<bool, { MAX_LINES * 4 }> = heapless::Vec::new();
-    // Cannot fail: `runs` has the same capacity.
-    let _ = used.resize(runs.len(), false);
+    // Never full: `runs` has the same capacity.
+    used.resize(runs.len(), false)
+        .map_err(|_| Limit::PathVertices.error())?;
     let point_of = |r: &(u16, f32, f32), t: f32| across * (a0 + (r.0 as f32 + 0.5) * w) + dir * t;
     let mut here: Option<Point> = sink.last_vertex().map(|v| v.at);
     let mut linked = false;

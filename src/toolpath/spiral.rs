@@ -15,6 +15,7 @@
 use heapless::Vec;
 
 use crate::config::{MAX_HALVES, MAX_HOLES};
+use crate::error::Limit;
 use crate::geometry::polyline;
 use crate::mcl::HalfEnd;
 use crate::toolpath::composition::{along, mcl_end_materials};
@@ -73,8 +74,8 @@ fn spokes(
     owner: &[u16; MAX_HALVES],
     hole: usize,
     half_width: f32,
-) -> Vec<Spoke, MAX_HALVES> {
-    let order = crate::mcl::insert::sorted_halves(&plan.halves, hole);
+) -> Result<Vec<Spoke, MAX_HALVES>, Error> {
+    let order = crate::mcl::insert::sorted_halves(&plan.halves, hole)?;
     let mut out: Vec<Spoke, MAX_HALVES> = Vec::new();
     for &h in order.iter() {
         let k = owner[h as usize] as usize;
@@ -88,15 +89,16 @@ fn spokes(
         } else {
             (len - half_width).max(0.0)
         };
-        // Cannot fail: one spoke per half in `order`, of the same capacity.
-        let _ = out.push(Spoke {
+        // Never full: one spoke per half in `order`, of the same capacity.
+        out.push(Spoke {
             half: h,
             mcl: k as u16,
             first: m.first == h,
             usable,
-        });
+        })
+        .map_err(|_| Limit::Halves.error())?;
     }
-    out
+    Ok(out)
 }
 
 /// Writes the spiral layer of `plan` into `sink`.
@@ -136,7 +138,7 @@ pub fn spiral(
     let mut entry: Option<u16> = None; // the half the road arrives on, from the previous cell
     for (pos, &cell) in order.iter().enumerate() {
         let cell = cell as usize;
-        let sp = spokes(plan, &owner, cell, 0.5 * w);
+        let sp = spokes(plan, &owner, cell, 0.5 * w)?;
         if sp.is_empty() {
             continue;
         }

@@ -24,6 +24,7 @@ use super::despike::{finish, Despike};
 use heapless::Vec;
 
 use crate::config::{MAX_HOLES, MAX_MCLS};
+use crate::error::Limit;
 use crate::geometry::{polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::{along, mcl_end_materials};
@@ -112,7 +113,12 @@ fn union(parent: &mut [u16], a: u16, b: u16) {
 }
 
 impl Ends {
-    fn new(slice: &Slice, plan: &Plan, curves: &[KeepOut<'_>], mcls: &Vec<u16, MAX_MCLS>) -> Ends {
+    fn new(
+        slice: &Slice,
+        plan: &Plan,
+        curves: &[KeepOut<'_>],
+        mcls: &Vec<u16, MAX_MCLS>,
+    ) -> Result<Ends, Error> {
         let holes = slice.holes().len();
         let mut e = Ends {
             mcls: mcls.clone(),
@@ -141,8 +147,8 @@ impl Ends {
             }
         }
         for id in 0..e.count as u16 {
-            // Cannot fail: two ends per MCL, at most ENDS.
-            let _ = e.order.push(id);
+            // Never full: two ends per MCL, at most ENDS.
+            e.order.push(id).map_err(|_| Limit::Mcls.error())?;
         }
         let (curve, param) = (&e.curve, &e.param);
         e.order.sort_unstable_by(|&a, &b| {
@@ -160,11 +166,13 @@ impl Ends {
             for k in start..end {
                 e.slot[e.order[k] as usize] = (k - start) as u16;
             }
-            // Cannot fail: one range per curve, at most CURVES.
-            let _ = e.ranges.push((start as u16, end as u16));
+            // Never full: one range per curve, at most CURVES.
+            e.ranges
+                .push((start as u16, end as u16))
+                .map_err(|_| Limit::Holes.error())?;
             start = end;
         }
-        e
+        Ok(e)
     }
 
     /// Pairs consecutive ends of curve `c` starting at position `offset` of its range; with an
@@ -224,11 +232,11 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     for h in slice.holes() {
         curves
             .push(KeepOut::new(h, half, Side::Outside))
-            .map_err(|_| crate::error::Limit::Holes.error())?;
+            .map_err(|_| Limit::Holes.error())?;
     }
     curves
         .push(KeepOut::new(slice.wall(), half, Side::Inside))
-        .map_err(|_| crate::error::Limit::Holes.error())?;
+        .map_err(|_| Limit::Holes.error())?;
     // Parity: every curve with an odd number of MCL ends leaves one end free, and each pair
     // of free ends is a separate path. Beyond one path, drop the shortest MCL joining two odd
     // curves (both turn even) until at most two curves are odd.
@@ -265,7 +273,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         dropped: (plan.mcls.len() - active.len()) as u16,
         ..ZigzagStats::default()
     };
-    let mut ends = Ends::new(slice, plan, &curves, &active);
+    let mut ends = Ends::new(slice, plan, &curves, &active)?;
     if ends.count == 0 {
         return Ok(stats);
     }
@@ -292,8 +300,8 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             }
             ends.pair_curve(c, best.0 + 1);
         } else {
-            // Cannot fail: at most one entry per curve.
-            let _ = even.push(c);
+            // Never full: at most one entry per curve.
+            even.push(c).map_err(|_| Limit::Holes.error())?;
             ends.pair_curve(c, 0);
         }
     }
@@ -537,14 +545,16 @@ fn emit_mcl(
         if step + 1 == n && n >= 2 {
             // Approaching the far end.
             for stop in extras(i, order(step - 1)).rev() {
-                let _ = stops.push(stop);
+                stops.push(stop).map_err(|_| Limit::PathVertices.error())?;
             }
         }
-        let _ = stops.push((pts[i], dir, cum[i], is_end));
+        stops
+            .push((pts[i], dir, cum[i], is_end))
+            .map_err(|_| Limit::PathVertices.error())?;
         if step == 0 && n >= 2 {
             // Leaving the first end.
             for stop in extras(i, order(1)) {
-                let _ = stops.push(stop);
+                stops.push(stop).map_err(|_| Limit::PathVertices.error())?;
             }
         }
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
@@ -776,16 +786,21 @@ fn emit_arc(
     let w = w - 2.0 * EDGE_MARGIN;
     // The curve's vertices strictly between the two MCL ends (the MCLs carry the ends), with
     // their arc lengths from `s0`.
-    // Cannot fail: `arc` gives both ends and at most every vertex in between.
+    // `arc` gives both ends and at most every vertex in between: a full buffer is a
+    // contour of more vertices than the core holds.
     let mut inner: Vec<(Point, f32), { crate::config::MAX_VERTICES + 2 }> = Vec::new();
+    let mut full = false;
     curve.arc(s0, s1, forward, |p, s| {
         let along = if forward {
             curve.wrap(s - s0)
         } else {
             curve.wrap(s0 - s)
         };
-        let _ = inner.push((p, along));
+        full |= inner.push((p, along)).is_err();
     });
+    if full {
+        return Err(Limit::Vertices.error());
+    }
     let between = inner.iter().skip(1).take(inner.len().saturating_sub(2));
     match role {
         Arc::Plain => {
