@@ -50,7 +50,80 @@ fn layers_of_reference_slices(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, plan_reference_slices, layers_of_reference_slices);
+/// A sink that takes the first vertex and refuses the next: a build into it runs to its
+/// first vertex (the wait before a layer's road can start).
+struct FirstVertex(Option<hollowpath::toolpath::Vertex>);
+
+impl hollowpath::toolpath::PathSink for FirstVertex {
+    fn push_vertex(
+        &mut self,
+        v: hollowpath::toolpath::Vertex,
+    ) -> Result<(), hollowpath::toolpath::Vertex> {
+        match self.0 {
+            None => {
+                self.0 = Some(v);
+                Ok(())
+            }
+            Some(_) => Err(v),
+        }
+    }
+    fn last_vertex(&self) -> Option<hollowpath::toolpath::Vertex> {
+        self.0
+    }
+}
+
+/// The offset spiral prepared once per slice (as the controller does after planning) against
+/// a fresh one: the whole layer, and the time to its first vertex.
+fn offset_spiral_prepared(c: &mut Criterion) {
+    use hollowpath::toolpath::offset::OffsetSpiral;
+    let mut group = c.benchmark_group("offset");
+    group.sample_size(10);
+    for (name, text) in REFERENCE_SLICES {
+        let slice = slice_file::parse(text).unwrap().slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        let mut prepared = Box::new(OffsetSpiral::new());
+        prepared.prepare(&slice).unwrap();
+        for (what, fresh) in [("fresh", true), ("prepared", false)] {
+            let mut fresh_one = Box::new(OffsetSpiral::new());
+            group.bench_function(format!("{name}/{what}/layer"), |b| {
+                b.iter(|| {
+                    let work = if fresh {
+                        *fresh_one = OffsetSpiral::new();
+                        &mut fresh_one
+                    } else {
+                        &mut prepared
+                    };
+                    let mut path: Vec<hollowpath::toolpath::Vertex> = Vec::new();
+                    work.build(black_box(&slice), plan, &mut path).unwrap();
+                    black_box(path.len())
+                })
+            });
+            group.bench_function(format!("{name}/{what}/first_vertex"), |b| {
+                b.iter(|| {
+                    let work = if fresh {
+                        *fresh_one = OffsetSpiral::new();
+                        &mut fresh_one
+                    } else {
+                        &mut prepared
+                    };
+                    let mut first = FirstVertex(None);
+                    // Refused at the second vertex: the build stops there.
+                    let stopped = work.build(black_box(&slice), plan, &mut first).is_err();
+                    black_box((stopped, first.0.is_some()))
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    plan_reference_slices,
+    layers_of_reference_slices,
+    offset_spiral_prepared
+);
 
 /// `criterion_main!` on a thread with room for the host build's capacities (the planner and
 /// the layers' working memory take megabytes, more than the main thread's stack).
