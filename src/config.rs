@@ -7,11 +7,14 @@
 //!
 //! ## Two sets of capacities, one plan
 //!
-//! The default sizes fit an STM32L4R5-class Cortex-M4F controller (2 MiB flash, 640 KiB RAM;
-//! the firmware's `memory.x` clips QEMU's memory to that): the whole
-//! [`Planner`](crate::Planner) is about 290 KiB and is meant to live in a `static`; one
-//! layer's path buffer ([`PATH_VERTICES`]) another 224 KiB. They hold 8 hollow features of up
-//! to 256 vertices in about 75 x 75 mm at 0.4 mm roads.
+//! The default sizes are the MCU build's: the whole [`Planner`](crate::Planner) is about
+//! 290 KiB and is meant to live in a `static`; one layer's path buffer ([`PATH_VERTICES`])
+//! another 224 KiB. They hold 8 hollow features of up to 256 vertices in about 75 x 75 mm at
+//! 0.4 mm roads. That fits no printer board yet: the QEMU firmware links in 1 MiB of
+//! mps2-an386's RAM (its `build.rs` widens `firmware/memory.x`; the firmware needs about
+//! 650 KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has
+//! 192 KiB (128 KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet
+//! yet.
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
