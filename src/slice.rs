@@ -238,11 +238,12 @@ impl Feature {
         let n = self.points.len();
         // Filled as needed: a large MAX_VERTICES costs no clearing per query.
         let mut bounds: Vec<(f32, usize), { MAX_VERTICES / CHUNK }> = Vec::new();
-        for (c, b) in self.chunks.iter().enumerate() {
+        // One per chunk, and `chunks` has the same capacity: `extend`, which would panic on
+        // overflow, cannot.
+        bounds.extend(self.chunks.iter().enumerate().map(|(c, b)| {
             let d = polygon::bbox_distance(*b, p);
-            // Cannot fail: one per chunk, of the same capacity.
-            let _ = bounds.push((d * d, c));
-        }
+            (d * d, c)
+        }));
         bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best = (self.points[0], f32::INFINITY, 0);
         for &(lower, c) in bounds.iter() {

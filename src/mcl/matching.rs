@@ -264,16 +264,13 @@ pub(crate) fn joined_points(
     first: usize,
     second: Option<usize>,
 ) -> Vec<Point, MCL_POINTS> {
-    // Cannot fail: two halves of at most HALF_POINTS points, less the shared joint.
+    // Two halves of at most HALF_POINTS points, less the shared joint, always fit (so
+    // `extend`, which would panic on overflow, cannot).
     const _: () = assert!(2 * HALF_POINTS - 1 <= MCL_POINTS);
     let mut out: Vec<Point, MCL_POINTS> = Vec::new();
-    for &p in halves[first].points.iter() {
-        let _ = out.push(p);
-    }
+    out.extend(halves[first].points.iter().copied());
     if let Some(s) = second {
-        for &p in halves[s].points.iter().rev().skip(1) {
-            let _ = out.push(p);
-        }
+        out.extend(halves[s].points.iter().rev().skip(1).copied());
     }
     out
 }

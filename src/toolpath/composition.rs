@@ -73,16 +73,17 @@ pub fn along(a: &Material, b: &Material, s: f32, len: f32) -> Material {
 pub struct BlendedField<'a> {
     slice: &'a Slice,
     plan: &'a Plan,
-    boxes: heapless::Vec<(Point, Point), { crate::config::MAX_MCLS }>,
+    /// The bounding box of MCL `k` of the plan at `k` (the rest unused).
+    boxes: [(Point, Point); crate::config::MAX_MCLS],
 }
 
 impl<'a> BlendedField<'a> {
     /// The field of `plan`'s MCLs.
     pub fn new(slice: &'a Slice, plan: &'a Plan) -> BlendedField<'a> {
-        let mut boxes = heapless::Vec::new();
-        for m in plan.mcls.iter() {
-            // Cannot fail: one box per MCL, and `plan.mcls` has the same capacity.
-            let _ = boxes.push(polyline::bbox(&plan.points(m)));
+        let mut boxes = [(Point::default(), Point::default()); crate::config::MAX_MCLS];
+        // One slot per MCL: `plan.mcls` holds at most MAX_MCLS, so none is left out.
+        for (slot, m) in boxes.iter_mut().zip(plan.mcls.iter()) {
+            *slot = polyline::bbox(&plan.points(m));
         }
         BlendedField { slice, plan, boxes }
     }

@@ -126,7 +126,7 @@ pub fn spiral(
             }
         }
     }
-    let order = cell_order(holes, &link);
+    let order = cell_order(holes, &link)?;
     // The MCL each half belongs to.
     let mut owner = [u16::MAX; MAX_HALVES];
     for (k, m) in plan.mcls.iter().enumerate() {
@@ -256,35 +256,35 @@ const SEARCH_STEPS: u32 = 200_000;
 fn cell_order(
     holes: usize,
     link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
-) -> Vec<u8, MAX_HOLES> {
+) -> Result<Vec<u8, MAX_HOLES>, Error> {
     fn extend(
         path: &mut Vec<u8, MAX_HOLES>,
         used: &mut [bool; MAX_HOLES],
         holes: usize,
         link: &[[Option<(u16, f32)>; MAX_HOLES]; MAX_HOLES],
         budget: &mut u32,
-    ) -> bool {
+    ) -> Result<bool, Error> {
         if path.len() == holes {
-            return true;
+            return Ok(true);
         }
         if *budget == 0 {
-            return false;
+            return Ok(false);
         }
         *budget -= 1;
         let last = *path.last().unwrap_or(&0) as usize;
         for c in 0..holes {
             if !used[c] && link[last][c].is_some() {
                 used[c] = true;
-                // Cannot fail: each of the `holes <= MAX_HOLES` cells is used once.
-                let _ = path.push(c as u8);
-                if extend(path, used, holes, link, budget) {
-                    return true;
+                // Never full: each of the `holes <= MAX_HOLES` cells is used once.
+                path.push(c as u8).map_err(|_| Limit::Holes.error())?;
+                if extend(path, used, holes, link, budget)? {
+                    return Ok(true);
                 }
                 path.pop();
                 used[c] = false;
             }
         }
-        false
+        Ok(false)
     }
     let mut budget = if holes <= EXHAUSTIVE_CELLS {
         u32::MAX
@@ -298,11 +298,16 @@ fn cell_order(
         let mut path: Vec<u8, MAX_HOLES> = Vec::new();
         let mut used = [false; MAX_HOLES];
         used[first] = true;
-        // Cannot fail: the path was just created.
-        let _ = path.push(first as u8);
-        if extend(&mut path, &mut used, holes, link, &mut budget) {
-            return path;
+        // Never full: the path was just created.
+        path.push(first as u8).map_err(|_| Limit::Holes.error())?;
+        if extend(&mut path, &mut used, holes, link, &mut budget)? {
+            return Ok(path);
         }
     }
-    (0..holes as u8).collect()
+    let mut order = Vec::new();
+    for c in 0..holes {
+        // `holes <= MAX_HOLES` (the slice holds no more).
+        order.push(c as u8).map_err(|_| Limit::Holes.error())?;
+    }
+    Ok(order)
 }
