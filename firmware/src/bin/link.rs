@@ -13,9 +13,10 @@
 //! the idle time. The link's [`Session`] lives in its own static behind a critical-section
 //! mutex: the UART's receive interrupt serves it (acks, replies, the host's messages
 //! decoded into events), so the link keeps answering while the application plans a slice
-//! or builds a layer, seconds in which its loop reads no byte. Waiting for the host it sleeps until a byte arrives and arms no timer: the
-//! link's own timers run when the host's next byte (its keep-alive) wakes it, so an idle
-//! firmware does not race through emulated time sending retransmissions. The printer's pins
+//! or builds a layer, seconds in which its loop reads no byte. Waiting for the host it
+//! sleeps until a byte or an event is there and arms no timer: the link's own timers run
+//! when the host's next byte (its keep-alive) wakes it, so an idle firmware does not race
+//! through emulated time sending retransmissions. The printer's pins
 //! are counted in memory (`link_board`). Semihosting prints one line at start and one per
 //! job; the UART carries nothing but the link.
 #![no_std]
