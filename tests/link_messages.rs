@@ -187,6 +187,7 @@ fn ctrl_messages() -> Vec<CtrlMsg> {
             valve_openings: [1, 2, 3, 4],
             valve_open_ticks: [u64::MAX, 0, 7, 1 << 40],
             print_ticks: 1 << 50,
+            starved: 3,
         })),
     ];
     v.extend(errors().into_iter().map(CtrlMsg::Error));

@@ -12,6 +12,9 @@ use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::config::CHANNELS;
 use hollowpath::motion::{Board, PrinterConfig};
 
+// `LinkBoard::parked` names one valve per channel.
+const _: () = assert!(CHANNELS == 4);
+
 /// The valve outputs' duties (full scale [`MAX_DUTY`]).
 static DUTY: [AtomicU16; CHANNELS] = [const { AtomicU16::new(0) }; CHANNELS];
 /// Openings per valve (duty from 0 to more).
@@ -33,10 +36,16 @@ pub fn valves_shut() -> bool {
 }
 
 /// An output pin counting its rising edges.
-#[derive(Default)]
 pub struct Out {
     high: bool,
     pub rises: u32,
+}
+
+impl Out {
+    const LOW: Out = Out {
+        high: false,
+        rises: 0,
+    };
 }
 
 impl ErrorType for Out {
@@ -100,13 +109,27 @@ pub struct LinkBoard {
 }
 
 impl LinkBoard {
+    /// Every output low, every input low: the board in its static until [`new`](Self::new)
+    /// replaces it at boot (the link firmware's; the bench firmware builds its boards at run
+    /// time).
+    #[allow(dead_code)]
+    pub const fn parked() -> LinkBoard {
+        LinkBoard {
+            step: [Out::LOW, Out::LOW, Out::LOW],
+            dir: [Out::LOW, Out::LOW, Out::LOW],
+            endstop: [In(false), In(false), In(false)],
+            estop: In(false),
+            valve: [Valve(0), Valve(1), Valve(2), Valve(3)],
+        }
+    }
+
     /// Pins for the default printer's polarities (endstops active high, the emergency stop
     /// active high): endstops hit, emergency stop released.
     pub fn new() -> LinkBoard {
         let cfg = PrinterConfig::default();
         LinkBoard {
-            step: Default::default(),
-            dir: Default::default(),
+            step: [Out::LOW, Out::LOW, Out::LOW],
+            dir: [Out::LOW, Out::LOW, Out::LOW],
             endstop: [0, 1, 2].map(|a| In(cfg.axes[a].endstop.is_none_or(|e| e.active_high))),
             estop: In(!cfg.estop_active_high),
             valve: [0, 1, 2, 3].map(Valve),

@@ -1,10 +1,10 @@
 //! The few mps2-an386 peripherals the link firmware uses, as QEMU models them: the CMSDK APB
-//! UART0 (the link's byte stream), CMSDK timer 0 (the wake-up at a step deadline) and the
-//! SysTick (the clock). Every register access is one `read_volatile` / `write_volatile` in
+//! UART0 (the link's byte stream), CMSDK timer 0 (a wake-up at a link deadline), CMSDK timer
+//! 1 (the step interrupt) and the SysTick (the clock). Every register access is one `read_volatile` / `write_volatile` in
 //! [`Reg`]; nothing else here is `unsafe`.
 //!
 //! Addresses and interrupt numbers (QEMU `hw/arm/mps2.c`, ARM AN386): UART0 at 0x4000_4000,
-//! its RX interrupt IRQ 0; TIMER0 at 0x4000_0000, IRQ 8. The UART (QEMU
+//! its RX interrupt IRQ 0; TIMER0 at 0x4000_0000, IRQ 8; TIMER1 at 0x4000_1000, IRQ 9. The UART (QEMU
 //! `hw/char/cmsdk-apb-uart.c`): DATA 0x00, STATE 0x04 (bit 0 TX full, bit 1 RX full), CTRL
 //! 0x08 (bit 0 TX enable, bit 1 RX enable, bit 3 RX interrupt enable), INTSTATUS/INTCLEAR
 //! 0x0C (write 1 to clear; bit 1 RX), BAUDDIV 0x10 (at least 16, or QEMU ignores it). The
@@ -50,7 +50,18 @@ const TIMER_INT: Reg = Reg(TIMER0 + 0x0C);
 /// Timer 0's interrupt.
 pub const TIMER0_IRQ: u16 = 8;
 
+const TIMER1: usize = 0x4000_1000;
+const STEP_CTRL: Reg = Reg(TIMER1);
+const STEP_VALUE: Reg = Reg(TIMER1 + 0x04);
+const STEP_RELOAD: Reg = Reg(TIMER1 + 0x08);
+const STEP_INT: Reg = Reg(TIMER1 + 0x0C);
+/// Timer 1's interrupt: the step interrupt.
+pub const STEP_IRQ: u16 = 9;
+
 const NVIC_ISER0: Reg = Reg(0xE000_E100);
+const NVIC_ISPR0: Reg = Reg(0xE000_E200);
+const NVIC_IPR0: Reg = Reg(0xE000_E400);
+const NVIC_IPR2: Reg = Reg(0xE000_E408);
 
 /// Bytes received and not read yet (the RX interrupt fills it; QEMU's UART holds one byte
 /// and takes the next from the line only once it was read, so nothing is lost).
@@ -59,13 +70,20 @@ static RX: [AtomicU32; RING] = [const { AtomicU32::new(0) }; RING];
 static RX_HEAD: AtomicUsize = AtomicUsize::new(0);
 static RX_TAIL: AtomicUsize = AtomicUsize::new(0);
 
-/// Enables UART0 at `baud` (TX and RX, the RX interrupt) and the two interrupts.
-pub fn init(baud: u32) {
+/// Enables UART0 at `baud` (TX and RX, the RX interrupt) and the three interrupts: the
+/// UART's and timer 0's at priority `link`, the step interrupt's at `step` (NVIC priority
+/// bytes, lower preempts).
+pub fn init(baud: u32, link: u8, step: u8) {
+    // IPR0 byte 0: IRQ 0 (UART0 RX); IPR2 bytes 0 and 1: IRQ 8 (timer 0), IRQ 9 (timer 1).
+    NVIC_IPR0.write(link as u32);
+    NVIC_IPR2.write(link as u32 | (step as u32) << 8);
     UART_BAUDDIV.write((CLOCK_HZ / baud).max(16));
     UART_CTRL.write(0b1011);
     TIMER_CTRL.write(0);
     TIMER_INT.write(1);
-    NVIC_ISER0.write((1 << UART0_RX_IRQ) | (1 << TIMER0_IRQ));
+    STEP_CTRL.write(0);
+    STEP_INT.write(1);
+    NVIC_ISER0.write((1 << UART0_RX_IRQ) | (1 << TIMER0_IRQ) | (1 << STEP_IRQ));
 }
 
 /// The RX interrupt: cleared first (a byte arriving after the loop raises it again), then
@@ -129,4 +147,25 @@ pub fn wake_in(ticks: u32) {
 /// Stops timer 0.
 pub fn cancel_wake() {
     TIMER_CTRL.write(0);
+}
+
+/// The step interrupt's entry: timer 1 is one-shot, so stop it and clear its flag.
+pub fn on_step_timer() {
+    STEP_CTRL.write(0);
+    STEP_INT.write(1);
+}
+
+/// Arms timer 1 to raise the step interrupt in `ticks` APB ticks (one-shot, at least 1).
+pub fn step_in(ticks: u32) {
+    let ticks = ticks.max(1);
+    STEP_CTRL.write(0);
+    STEP_RELOAD.write(ticks);
+    STEP_VALUE.write(ticks);
+    STEP_INT.write(1);
+    STEP_CTRL.write(0b1001);
+}
+
+/// Raises the step interrupt now (it runs as soon as no critical section holds it off).
+pub fn pend_step() {
+    NVIC_ISPR0.write(1 << STEP_IRQ);
 }

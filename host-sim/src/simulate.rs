@@ -2,6 +2,7 @@
 //! printer, and the layer measured twice with one [`Meter`]: as planned, and as rebuilt from
 //! the pin trace.
 
+use hollowpath::app::job::Printed;
 use hollowpath::geometry::Point;
 use hollowpath::link::message::LayerTelemetry;
 use hollowpath::motion::machine::Counters;
@@ -142,8 +143,12 @@ pub fn layer_json(s: &SimulatedLayer, channels: usize) -> Result<Value, serde_js
 /// Layer `index`'s telemetry as the controller reports it over the link (`hollowpath print
 /// --report`), from what the machine counted over the layer of the whole job
 /// ([`run_job_counted`](crate::virtual_printer::run_job_counted)): the two compare key by key.
-pub fn telemetry_json(index: usize, counters: &Counters, channels: usize) -> Value {
-    let t = LayerTelemetry::from_counters(u16::try_from(index).unwrap_or(u16::MAX), counters);
+pub fn telemetry_json(index: usize, printed: &Printed, channels: usize) -> Value {
+    let t = LayerTelemetry::from_counters(
+        u16::try_from(index).unwrap_or(u16::MAX),
+        &printed.counters,
+        printed.starved,
+    );
     telemetry_value(&t, channels)
 }
 
@@ -155,5 +160,6 @@ pub fn telemetry_value(t: &LayerTelemetry, channels: usize) -> Value {
         "valve_openings": &t.valve_openings[..channels],
         "valve_open_ticks": &t.valve_open_ticks[..channels],
         "print_ticks": t.print_ticks,
+        "starved": t.starved,
     })
 }

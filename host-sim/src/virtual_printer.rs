@@ -36,7 +36,8 @@ use std::rc::Rc;
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
-use hollowpath::app::job::{self, Drive, LayerError};
+use hollowpath::app::job::{self, Drive, LayerError, Printed};
+use hollowpath::app::steps::Stepping;
 use hollowpath::config::CHANNELS;
 use hollowpath::motion::config::AXES;
 use hollowpath::motion::machine::Counters;
@@ -266,7 +267,9 @@ impl VirtualBoard {
         std::mem::replace(&mut *t, fresh)
     }
 
-    fn advance(&mut self, dt: u64) {
+    /// Moves the board's clock on by `dt` ticks (whoever drives the machine keeps the board at
+    /// the alarm's time: the edges an alarm drives are recorded at the board's clock).
+    pub fn advance(&mut self, dt: u64) {
         self.trace.borrow_mut().now += dt;
     }
 }
@@ -355,11 +358,18 @@ impl VirtualPrinter {
 
     /// One alarm now; the deadline it asks for is jumped to. Whether there was one.
     fn alarm(&mut self) -> Result<bool, SimError> {
-        Clocked {
-            board: &mut self.board,
-            ticks: &mut self.ticks,
+        match self.machine.on_alarm(self.ticks, &mut self.board) {
+            Some(at) => {
+                let dt = at.wrapping_sub(self.ticks);
+                if dt >= 1 << 30 {
+                    return Err(SimError::Deadline(dt));
+                }
+                self.ticks = at;
+                self.board.advance(dt as u64);
+                Ok(true)
+            }
+            None => Ok(false),
         }
-        .alarm(&mut self.machine)
     }
 
     /// Runs `moves` at height `z` to the end, pushing them whenever the look-ahead has room.
@@ -421,56 +431,67 @@ pub fn run_layer_counted(
     Ok((t, counted))
 }
 
-/// The virtual clock as the core's job routine drives it: each alarm jumps to the deadline
-/// the machine asked for.
+/// The virtual clock as the core's job routine drives it: the step side's interrupt runs
+/// whenever the routine waits, at the deadline it asked for, the clock jumped there (so
+/// every alarm finds the move queue full: the host never starves).
 struct Clocked<'a> {
-    board: &'a mut VirtualBoard,
-    ticks: &'a mut u32,
+    steps: Box<Stepping<&'a mut VirtualBoard>>,
+    ticks: u32,
 }
 
-impl Drive<LOOK_AHEAD> for Clocked<'_> {
+impl<'a> Drive for Clocked<'a> {
+    type Board = &'a mut VirtualBoard;
     type Stop = SimError;
-    fn alarm(&mut self, machine: &mut Machine<LOOK_AHEAD>) -> Result<bool, SimError> {
-        match machine.on_alarm(*self.ticks, self.board) {
-            Some(at) => {
-                let dt = at.wrapping_sub(*self.ticks);
-                if dt >= 1 << 30 {
-                    return Err(SimError::Deadline(dt));
-                }
-                *self.ticks = at;
-                self.board.advance(dt as u64);
-                Ok(true)
-            }
-            None => Ok(false),
+    fn lock<R>(&mut self, f: impl FnOnce(&mut Stepping<Self::Board>) -> R) -> R {
+        f(&mut self.steps)
+    }
+    fn now(&mut self) -> u32 {
+        self.ticks
+    }
+    fn kick(&mut self) {}
+    fn wait(&mut self) -> Result<(), SimError> {
+        let Some(at) = self.steps.deadline() else {
+            // At rest with nothing to start: the routine would wait for ever.
+            let state = self.steps.state().unwrap_or(State::Unhomed);
+            return Err(SimError::Unfinished(state));
+        };
+        let dt = at.wrapping_sub(self.ticks);
+        if dt >= 1 << 30 {
+            return Err(SimError::Deadline(dt));
         }
+        self.ticks = at;
+        self.steps.board().advance(dt as u64);
+        self.steps.on_alarm(at);
+        Ok(())
     }
 }
 
 /// Prints `layers` layers of the job on one virtual printer, homed once, layer after layer
 /// with z rising, through the core's own job routine ([`hollowpath::app::job`], the one the
-/// controller prints with): what the machine counted over each layer, the controller's
-/// telemetry exactly.
+/// controller prints with, and its step side [`Stepping`]): what the machine drove over each
+/// layer, the controller's telemetry exactly.
 pub fn run_job_counted(
     cfg: &PrinterConfig,
     slice: &Slice,
     plan: &Plan,
     layers: usize,
-) -> Result<Vec<Counters>, SimError> {
-    let mut p = VirtualPrinter::new(cfg)?;
+) -> Result<Vec<Printed>, SimError> {
+    let VirtualPrinter {
+        machine,
+        mut board,
+        ticks,
+    } = VirtualPrinter::new(cfg)?;
     let mut offset = Box::new(OffsetSpiral::new());
-    let mut drive = Clocked {
-        board: &mut p.board,
-        ticks: &mut p.ticks,
-    };
+    let mut steps = Box::new(Stepping::new(&mut board));
+    steps.install(*machine);
+    let mut drive = Clocked { steps, ticks };
     (0..layers)
         .map(|k| {
-            job::print_layer(slice, plan, &mut offset, k, &mut p.machine, &mut drive).map_err(|e| {
-                match e {
-                    LayerError::Path(e) => SimError::Path(e),
-                    LayerError::Refused(why) => SimError::Refused { index: k, why },
-                    LayerError::Stopped(e) => e,
-                    LayerError::Unfinished(s) => SimError::Unfinished(s),
-                }
+            job::print_layer(slice, plan, &mut offset, k, &mut drive).map_err(|e| match e {
+                LayerError::Path(e) => SimError::Path(e),
+                LayerError::Refused(why) => SimError::Refused { index: k, why },
+                LayerError::Stopped(e) => e,
+                LayerError::Unfinished(s) => SimError::Unfinished(s),
             })
         })
         .collect()

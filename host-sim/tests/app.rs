@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
-use hollowpath::app::{App, Io, Session, Shared};
+use hollowpath::app::{App, Io, Lockstep, Session, Shared, Steps};
 use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
@@ -266,9 +266,10 @@ fn spawn_app_served(
                     }
                 })
             });
-            let mut board = MockBoard::new();
+            // The step side, its interrupt run at each deadline when the app waits.
+            let steps = Box::new(Lockstep::new(MockBoard::new()));
             while !stop.load(Ordering::Relaxed) {
-                app.poll(&*link, &mut io, &mut board);
+                app.poll(&*link, &mut io, &*steps);
                 if !link.lock(|s| s.has_events()) {
                     io.sleep(None);
                 }
@@ -277,8 +278,8 @@ fn spawn_app_served(
                 t.join().unwrap();
             }
             Outcome {
-                state: app.machine().map(|m| m.state()),
-                duties: [0, 1, 2, 3].map(|c| board.valve[c].0),
+                state: steps.lock(|s| s.state()),
+                duties: steps.lock(|s| [0, 1, 2, 3].map(|c| s.board().valve[c].0)),
             }
         })
         .unwrap()
@@ -413,7 +414,7 @@ fn a_job_prints_with_the_telemetry_of_simulate_and_a_bad_slice_is_refused() {
         for (k, (got, c)) in layers.iter().zip(&expected).enumerate() {
             assert_eq!(
                 *got,
-                LayerTelemetry::from_counters(k as u16, c),
+                LayerTelemetry::from_counters(k as u16, &c.counters, c.starved),
                 "layer {k}"
             );
             assert!(got.steps[0] > 1000 && got.valve_openings.iter().sum::<u32>() > 0);

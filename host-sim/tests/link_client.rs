@@ -208,6 +208,7 @@ fn layer_telemetry(layer: u16) -> LayerTelemetry {
         valve_openings: [l, 1, 0, 2],
         valve_open_ticks: [u64::from(l) * 1000, 5, 0, 7],
         print_ticks: 1_000_000 + u64::from(l),
+        starved: 0,
     }
 }
 

@@ -15,9 +15,9 @@
 //!   ([`OffsetSpiral::prepare`]), so that no spiral layer starts with that work (every odd
 //!   layer of the job walks the same loops).
 //! * `Start` prints the job on a fresh [`Machine`] for the accepted printer: homing, then
-//!   layer after layer on the same machine, z rising, each layer's path streamed straight
-//!   into the machine ([`job::print_layer`], the routine the host's `simulate` counts its
-//!   telemetry with), the step interrupt run at the deadlines the machine asks for. After
+//!   layer after layer on the same machine, z rising, each layer's path generated into the
+//!   step side's queue ([`job::print_layer`], the routine the host's `simulate` counts its
+//!   telemetry with) while the platform's step interrupt runs the machine. After
 //!   each layer its [`LayerTelemetry`] goes up, with a [`Status`](crate::link::message::Status) (phase, layer, percent)
 //!   at each layer's start.
 //! * While printing, the link is served between step deadlines: `Pause` stops at the next
@@ -37,22 +37,33 @@
 //! same session from its receive interrupt ([`Session::serve`]: acks, replies, the host's
 //! messages decoded into a queue of events), so the link answers while the application
 //! plans a slice or builds a layer, seconds in which its loop reads no byte; the
-//! application takes the queued events when it is back in its loop. The step interrupt runs in lockstep with the layer's generator: the generator
-//! fills the look-ahead, and the alarm due next runs (at its own deadline, however late the
-//! platform woke) whenever the look-ahead is full or the layer ended, so the machine sees
-//! the same pushes and alarms as on the host, and counts the same figures. A late wake-up
-//! delays steps but never reorders or changes them.
+//! application takes the queued events when it is back in its loop.
+//!
+//! The machine is not the application's either: it lives on the step side
+//! ([`steps::Stepping`]: the machine, the board, a queue of the layer's moves), passed to
+//! `poll` as the platform's [`Steps`]. A controller's step timer interrupt runs it
+//! ([`Stepping::run_due`]) at the deadlines the machine asks for, while the application's
+//! loop generates the layer and queues its moves, so steps keep their times however long
+//! one vertex of a layer takes to compute. Each alarm first tops the look-ahead up from the
+//! queue, and a layer starts from rest only once the look-ahead can be filled, so every alarm
+//! of a layer sees the look-ahead full as on the host (whose [`Lockstep`] runs the alarm due
+//! next whenever the application waits) and the machine counts the same figures; an alarm
+//! that ran short because the generator fell behind is counted and reported
+//! ([`LayerTelemetry::starved`]). A late interrupt delays steps but never reorders or
+//! changes them.
 
 pub mod io;
 pub mod job;
 pub mod session;
 pub mod shared;
+pub mod steps;
 
 use crate::link::controller::Event;
 use crate::link::error::LinkError;
 use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry};
 use crate::motion::machine::Fault;
-use crate::motion::{Board, Machine, State};
+use crate::motion::stepper::Ticks;
+use crate::motion::{Machine, State};
 use crate::toolpath::offset::OffsetSpiral;
 use crate::{Planner, Slice};
 
@@ -60,6 +71,7 @@ pub use io::Io;
 use job::{Drive, LayerError};
 pub use session::Session;
 pub use shared::Shared;
+pub use steps::{Lockstep, Stepping, Steps};
 
 /// Blocks of look-ahead of the application's machine (the host's virtual printer's too).
 pub const LOOK_AHEAD: usize = 32;
@@ -76,7 +88,6 @@ pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
     offset: OffsetSpiral,
     slice: Option<Slice>,
     planned: bool,
-    machine: Option<Machine<LOOK_AHEAD>>,
 }
 
 impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS, W> {
@@ -87,37 +98,33 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             offset: OffsetSpiral::new(),
             slice: None,
             planned: false,
-            machine: None,
         }
-    }
-
-    /// The machine of the last job, if any.
-    pub fn machine(&self) -> Option<&Machine<LOOK_AHEAD>> {
-        self.machine.as_ref()
     }
 
     /// Serves the link: handles what arrived (planning a slice, running a job to its end),
     /// writes what is due; returns the link's next deadline (microseconds). `link` is the
     /// application's [`Session`], behind the platform's lock (taken for each call into it,
-    /// never across planning or stepping).
-    pub fn poll<L, I, B>(&mut self, link: &L, io: &mut I, board: &mut B) -> Option<u64>
+    /// never across planning or stepping). `steps` is the step side ([`Steps`]: the
+    /// machine, the board and the moves queued for them), which the platform's step
+    /// interrupt runs.
+    pub fn poll<L, I, S>(&mut self, link: &L, io: &mut I, steps: &S) -> Option<u64>
     where
         L: Shared<Session<HOLES, POINTS, W>>,
         I: Io,
-        B: Board,
+        S: Steps,
     {
         while let Some(event) = link.lock(|s| s.next_event(io)) {
-            self.on_event(event, link, io, board);
+            self.on_event(event, link, io, steps);
             link.lock(|s| s.flush(io));
         }
         link.lock(|s| s.flush(io))
     }
 
-    fn on_event<L, I, B>(&mut self, event: Event, link: &L, io: &mut I, board: &mut B)
+    fn on_event<L, I, S>(&mut self, event: Event, link: &L, io: &mut I, steps: &S)
     where
         L: Shared<Session<HOLES, POINTS, W>>,
         I: Io,
-        B: Board,
+        S: Steps,
     {
         match event {
             Event::SliceReady => {
@@ -155,7 +162,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                 }
                 link.lock(|s| s.report(Phase::Idle, 0, 0, 0));
             }
-            Event::Start => self.run_job(link, io, board),
+            Event::Start => self.run_job(link, io, steps),
             // Outside a job there is nothing to pause, resume or abort; a stopped machine
             // stays stopped (a new job builds a new one).
             Event::Pause | Event::Resume | Event::Abort => link.lock(|s| {
@@ -167,11 +174,11 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
     }
 
     /// Prints the accepted slice on a fresh machine; ends idle, with the outcome reported.
-    fn run_job<L, I, B>(&mut self, link: &L, io: &mut I, board: &mut B)
+    fn run_job<L, I, S>(&mut self, link: &L, io: &mut I, steps: &S)
     where
         L: Shared<Session<HOLES, POINTS, W>>,
         I: Io,
-        B: Board,
+        S: Steps,
     {
         let cfg = link.lock(|s| s.ctrl.printer().cloned());
         let (Some(slice), true, Some(cfg)) = (&self.slice, self.planned, cfg) else {
@@ -183,14 +190,14 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             return;
         };
         let layers = link.lock(|s| s.ctrl.layers());
-        let machine = match Machine::new(cfg) {
-            Ok(m) => self.machine.insert(m),
+        let tick_hz = cfg.tick_hz;
+        match Machine::new(cfg) {
+            Ok(m) => steps.lock(|s| s.install(m)),
             Err(e) => {
                 link.lock(|s| s.send(CtrlMsg::Error(RemoteError::Printer(e.into()))));
                 return;
             }
-        };
-        let tick_hz = machine.config().tick_hz;
+        }
         link.lock(|s| {
             s.report_on_hello = None;
             s.report(Phase::Homing, 0, layers, 0);
@@ -198,15 +205,14 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         let mut run = Run {
             link,
             io,
-            board,
+            steps,
             tick_hz,
-            deadline: None,
             served: 0,
             pause_reported: false,
             stopped: None,
             _session: core::marker::PhantomData,
         };
-        let mut result = job::home(machine, &mut run);
+        let mut result = job::home(&mut run);
         let plan = self.planner.last_plan();
         let mut layer = 0u16;
         while result.is_ok() && layer < layers {
@@ -215,16 +221,9 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                 s.report(Phase::Printing, layer, layers, percent);
                 s.flush(run.io);
             });
-            match job::print_layer(
-                slice,
-                plan,
-                &mut self.offset,
-                layer as usize,
-                machine,
-                &mut run,
-            ) {
-                Ok(c) => {
-                    let t = LayerTelemetry::from_counters(layer, &c);
+            match job::print_layer(slice, plan, &mut self.offset, layer as usize, &mut run) {
+                Ok(p) => {
+                    let t = LayerTelemetry::from_counters(layer, &p.counters, p.starved);
                     link.lock(|s| s.send(CtrlMsg::Telemetry(Telemetry::Layer(t))));
                     layer += 1;
                 }
@@ -240,7 +239,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                     LayerError::Stopped(f) => f,
                     _ => Fault::Aborted,
                 });
-                machine.shutdown(run.board, fault);
+                run.steps.lock(|s| s.shutdown(fault));
                 let percent = (layer as u32 * 100 / layers.max(1) as u32) as u8;
                 let phase = if fault == Fault::Aborted {
                     Phase::Aborted
@@ -252,7 +251,10 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                     _ => RemoteError::Machine(fault),
                 };
                 let now = run.io.now_us();
-                let steps = machine.counters().steps;
+                let steps = run
+                    .steps
+                    .lock(|s| s.machine().map(|m| m.counters().steps))
+                    .unwrap_or_default();
                 link.lock(|s| {
                     let (at_us, heard_us) = run.stopped.unwrap_or((now, s.ctrl.last_heard()));
                     let stop = StopReport {
@@ -280,41 +282,40 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Default for App<HO
     }
 }
 
-/// The step interrupt of a job, with the link served between deadlines.
-struct Run<'a, L, I, B, S> {
+/// A job's [`Drive`]: the platform's step side, with the link served while the application
+/// waits for it.
+struct Run<'a, L, I, S, Sn> {
     link: &'a L,
     io: &'a mut I,
-    board: &'a mut B,
+    steps: &'a S,
     tick_hz: u32,
-    /// The deadline the machine asked for last (`None`: at rest, run at once).
-    deadline: Option<u32>,
     /// When the link was served last (microseconds).
     served: u64,
     pause_reported: bool,
     /// When the machine was stopped from the link (abort, host silence), and when the
     /// host was last heard then.
     stopped: Option<(u64, Option<u64>)>,
-    _session: core::marker::PhantomData<S>,
+    _session: core::marker::PhantomData<Sn>,
 }
 
-impl<L, I, B, const HOLES: usize, const POINTS: usize, const W: usize>
-    Run<'_, L, I, B, Session<HOLES, POINTS, W>>
+impl<L, I, S, const HOLES: usize, const POINTS: usize, const W: usize>
+    Run<'_, L, I, S, Session<HOLES, POINTS, W>>
 where
     L: Shared<Session<HOLES, POINTS, W>>,
     I: Io,
-    B: Board,
+    S: Steps,
 {
     /// Serves the link: pause, resume and abort act on the machine; silence past the
     /// watchdog stops it.
-    fn serve(&mut self, machine: &mut Machine<LOOK_AHEAD>, now: u64) -> Option<u64> {
+    fn serve(&mut self, now: u64) -> Option<u64> {
         self.served = now;
         while let Some(event) = self.link.lock(|s| s.next_event(self.io)) {
             match event {
-                Event::Pause => machine.pause(),
+                Event::Pause => self.steps.lock(|s| s.pause()),
                 Event::Resume => {
-                    if machine.state() == State::Paused {
-                        machine.resume();
-                        self.deadline = None;
+                    let at = io::ticks_at(self.io.now_us(), self.tick_hz);
+                    if self.steps.lock(|s| s.resume(at)) {
+                        self.steps.kick();
                         self.pause_reported = false;
                         self.link.lock(|s| {
                             let st = s.status;
@@ -323,7 +324,7 @@ where
                     }
                 }
                 Event::Abort => {
-                    machine.abort(self.board);
+                    self.steps.lock(|s| s.shutdown(Fault::Aborted));
                     self.stop_at(now);
                 }
                 Event::Start => self.link.lock(|s| {
@@ -338,7 +339,7 @@ where
         }
         let now = self.io.now_us();
         if self.link.lock(|s| s.ctrl.is_lost(now)) {
-            machine.shutdown(self.board, Fault::HostSilent);
+            self.steps.lock(|s| s.shutdown(Fault::HostSilent));
             self.stop_at(now);
         }
         self.link.lock(|s| s.flush(self.io))
@@ -353,58 +354,58 @@ where
     }
 }
 
-impl<L, I, B, const HOLES: usize, const POINTS: usize, const W: usize> Drive<LOOK_AHEAD>
-    for Run<'_, L, I, B, Session<HOLES, POINTS, W>>
+impl<L, I, S, const HOLES: usize, const POINTS: usize, const W: usize> Drive
+    for Run<'_, L, I, S, Session<HOLES, POINTS, W>>
 where
     L: Shared<Session<HOLES, POINTS, W>>,
     I: Io,
-    B: Board,
+    S: Steps,
 {
+    type Board = S::Board;
     type Stop = Fault;
 
-    fn alarm(&mut self, machine: &mut Machine<LOOK_AHEAD>) -> Result<bool, Fault> {
-        loop {
-            let now = self.io.now_us();
-            if now.wrapping_sub(self.served) >= SERVE_US || self.deadline.is_none() {
-                self.serve(machine, now);
-            }
-            match machine.state() {
-                State::Stopped(f) => return Err(f),
-                State::Paused => {
-                    if !self.pause_reported {
-                        self.pause_reported = true;
-                        self.link.lock(|s| {
-                            let st = s.status;
-                            s.report(Phase::Paused, st.layer, st.layers, st.percent);
-                            s.flush(self.io);
-                        });
-                    }
-                    self.serve(machine, now);
-                    if machine.state() == State::Paused {
-                        // Nothing to step: wait for the host (its keep-alives wake us).
-                        self.io.sleep(None);
-                    }
-                    continue;
+    fn lock<R>(&mut self, f: impl FnOnce(&mut Stepping<S::Board>) -> R) -> R {
+        self.steps.lock(f)
+    }
+
+    fn now(&mut self) -> Ticks {
+        io::ticks_at(self.io.now_us(), self.tick_hz)
+    }
+
+    fn kick(&mut self) {
+        self.steps.kick();
+    }
+
+    fn wait(&mut self) -> Result<(), Fault> {
+        let now = self.io.now_us();
+        let (state, running) = self.steps.lock(|s| (s.state(), s.deadline().is_some()));
+        if now.wrapping_sub(self.served) >= SERVE_US || !running {
+            self.serve(now);
+        }
+        match self.steps.lock(|s| s.state()).or(state) {
+            Some(State::Stopped(f)) => Err(f),
+            Some(State::Paused) => {
+                if !self.pause_reported {
+                    self.pause_reported = true;
+                    self.link.lock(|s| {
+                        let st = s.status;
+                        s.report(Phase::Paused, st.layer, st.layers, st.percent);
+                        s.flush(self.io);
+                    });
                 }
-                _ => {}
-            }
-            let at = match self.deadline {
-                None => io::ticks_at(now, self.tick_hz),
-                Some(d) => {
-                    let wait = io::us_until(io::ticks_at(now, self.tick_hz), d, self.tick_hz);
-                    if wait > 0 {
-                        // Only the step deadline wakes us (and bytes): the link is served
-                        // every `SERVE_US` of stepping, and a platform whose idle time
-                        // jumps (QEMU's `-icount sleep=off`) must not race through the
-                        // link's timers.
-                        self.io.sleep(Some(now + wait));
-                        continue;
-                    }
-                    d
+                self.serve(now);
+                if self.steps.lock(|s| s.state()) == Some(State::Paused) {
+                    // Nothing to step: wait for the host (its keep-alives wake us).
+                    self.io.sleep(None);
                 }
-            };
-            self.deadline = machine.on_alarm(at, self.board);
-            return Ok(self.deadline.is_some() || machine.state() == State::Paused);
+                Ok(())
+            }
+            _ => {
+                // The step interrupt runs at its deadlines (a host's runs here); the link
+                // is served every `SERVE_US` of it.
+                self.steps.wait(self.io);
+                Ok(())
+            }
         }
     }
 }

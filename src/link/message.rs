@@ -30,8 +30,9 @@ use crate::motion::machine::Fault;
 use crate::slice::{Material, Settings};
 
 /// The protocol version; peers of different versions refuse each other (2: small contour
-/// chunks, the printer configuration in chunks, [`CtrlMsg::Stopped`]).
-pub const PROTOCOL_VERSION: u16 = 2;
+/// chunks, the printer configuration in chunks, [`CtrlMsg::Stopped`]; 3: a layer's
+/// telemetry counts its starved step alarms, [`LayerTelemetry::starved`]).
+pub const PROTOCOL_VERSION: u16 = 3;
 /// Bytes of zigzag-varint vertices in one [`ContourChunk`] (and of encoded printer
 /// configuration in one [`PrinterChunk`]).
 pub const CHUNK_BYTES: usize = 64;
@@ -250,13 +251,22 @@ pub struct LayerTelemetry {
     pub valve_open_ticks: [u64; CHANNELS],
     /// The layer's print time, timer ticks.
     pub print_ticks: u64,
+    /// Step alarms that ran with the look-ahead short of moves because the layer's
+    /// generator fell behind ([`Stepping::starved`](crate::app::steps::Stepping::starved));
+    /// 0 when the controller kept ahead, as the host's `simulate` always does.
+    pub starved: u32,
 }
 
 impl LayerTelemetry {
     /// Layer `layer`'s figures from what the machine drove over it
-    /// ([`Counters::since`](crate::motion::machine::Counters::since)); a count past `u32`
-    /// saturates (a layer of more than 4 billion steps on an axis is not a layer).
-    pub fn from_counters(layer: u16, c: &crate::motion::machine::Counters) -> LayerTelemetry {
+    /// ([`Counters::since`](crate::motion::machine::Counters::since)) and its starved
+    /// alarms; a count past `u32` saturates (a layer of more than 4 billion steps on an axis
+    /// is not a layer).
+    pub fn from_counters(
+        layer: u16,
+        c: &crate::motion::machine::Counters,
+        starved: u32,
+    ) -> LayerTelemetry {
         let mut steps = [0u32; AXES];
         for (s, &n) in steps.iter_mut().zip(c.steps.iter()) {
             *s = u32::try_from(n).unwrap_or(u32::MAX);
@@ -267,6 +277,7 @@ impl LayerTelemetry {
             valve_openings: c.valve_openings,
             valve_open_ticks: c.valve_open_ticks,
             print_ticks: c.ticks,
+            starved,
         }
     }
 }

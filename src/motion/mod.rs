@@ -31,7 +31,10 @@
 //! Driving it: implement [`Board`] for the pins, home, push moves whenever the look-ahead
 //! has room, and call [`Machine::on_alarm`] at each deadline it returns (a virtual clock
 //! jumps straight there; a board sets its timer's compare, or uses
-//! [`Machine::service`] with a [`StepTimer`]).
+//! [`Machine::service`] with a [`StepTimer`]). The controller application keeps the machine
+//! on its step side ([`app::steps`](crate::app::steps)): the step interrupt tops the
+//! look-ahead up from a queue of the layer's moves at every alarm while the application's
+//! loop generates them.
 //!
 //! ```
 //! use core::convert::Infallible;
@@ -137,4 +140,26 @@ pub trait Board {
     fn estop(&mut self) -> &mut Self::In;
     /// The valve output of channel `channel`.
     fn valve(&mut self, channel: usize) -> &mut Self::Pwm;
+}
+
+/// A board lent out (the host's virtual printer lends its board to a job's step side).
+impl<B: Board> Board for &mut B {
+    type Out = B::Out;
+    type In = B::In;
+    type Pwm = B::Pwm;
+    fn step(&mut self, axis: usize) -> &mut Self::Out {
+        (**self).step(axis)
+    }
+    fn dir(&mut self, axis: usize) -> &mut Self::Out {
+        (**self).dir(axis)
+    }
+    fn endstop(&mut self, axis: usize) -> &mut Self::In {
+        (**self).endstop(axis)
+    }
+    fn estop(&mut self) -> &mut Self::In {
+        (**self).estop()
+    }
+    fn valve(&mut self, channel: usize) -> &mut Self::Pwm {
+        (**self).valve(channel)
+    }
 }
