@@ -14,8 +14,9 @@ pub mod raster;
 pub mod spiral;
 pub mod zigzag;
 
-use crate::geometry::Point;
-use crate::{Error, FeatureId, Limit, Material, Slice};
+use crate::geometry::{polygon, Point};
+use crate::keep_out::{KeepOut, Side};
+use crate::{Error, Feature, FeatureId, Limit, Material, Slice};
 
 /// The fill pattern of a layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -228,6 +229,10 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
                     v.at = pushed;
                 } else if room >= slice.settings().min_width {
                     v.width = room;
+                } else if prev.deposit {
+                    // Mid-road: the vertex is left out and the road goes on from the last
+                    // one to the next (a break here would be an extrusion start).
+                    return Ok(());
                 } else {
                     return emit(
                         sink,
@@ -249,19 +254,103 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
                     },
                 );
             }
-            bend(slice, sink, prev, v, 8)
+            bend(slice, sink, prev, v, 8, true)
         }
         _ => emit(sink, v),
     }
 }
 
-/// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says.
+/// The longest detour round a feature that [`detour`] lays instead of a travel move, in road
+/// widths: a longer one would double more of the feature's strip than an extrusion start
+/// costs.
+const DETOUR_ROADS: f32 = 24.0;
+
+/// Where the depositing move from `a` to `b` (both in the material) crosses a feature, the road
+/// goes round it instead: along the feature's keep-out curve from the point nearest `a` to the
+/// point nearest `b`, the shorter way, at the narrower of the two widths and in the feature's
+/// own material (the material of its keep-out curve), then on to `b`. Returns whether it did:
+/// not where the move crosses several features, where the way round is longer than
+/// [`DETOUR_ROADS`] road widths, or where a point of the way round does not fit (the move is
+/// then bent or travelled as before).
+fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Result<bool, Error> {
+    let (lo, hi) = (
+        Point::new(a.at.x.min(b.at.x), a.at.y.min(b.at.y)),
+        Point::new(a.at.x.max(b.at.x), a.at.y.max(b.at.y)),
+    );
+    let crosses = |f: &Feature| {
+        let (blo, bhi) = f.bbox();
+        let pts = f.points();
+        let n = pts.len();
+        blo.x <= hi.x
+            && bhi.x >= lo.x
+            && blo.y <= hi.y
+            && bhi.y >= lo.y
+            && (0..n).any(|k| polygon::segments_meet(a.at, b.at, pts[k], pts[(k + 1) % n]))
+    };
+    let mut crossed = slice
+        .holes()
+        .iter()
+        .map(|h| (h, Side::Outside))
+        .chain(core::iter::once((slice.wall(), Side::Inside)))
+        .filter(|(f, _)| crosses(f));
+    let (Some((feature, side)), None) = (crossed.next(), crossed.next()) else {
+        return Ok(false);
+    };
+    let width = a.width.min(b.width);
+    let curve = KeepOut::new(feature, 0.5 * width, side);
+    let (s0, s1) = (curve.param_of(a.at), curve.param_of(b.at));
+    let ahead = curve.wrap(s1 - s0);
+    let forward = ahead <= 0.5 * curve.length();
+    let span = if forward {
+        ahead
+    } else {
+        curve.length() - ahead
+    };
+    if span > DETOUR_ROADS * slice.settings().road_width {
+        return Ok(false);
+    }
+    // Every point of the way round must fit before any is laid.
+    let mut fits = true;
+    curve.arc(s0, s1, forward, |p, _| fits &= slice.fits(p, width, 1e-4));
+    if !fits {
+        return Ok(false);
+    }
+    let material = feature.material();
+    let mut result = Ok(());
+    curve.arc(s0, s1, forward, |p, _| {
+        if result.is_ok() {
+            let v = Vertex {
+                at: p,
+                material,
+                width,
+                deposit: true,
+            };
+            result = match sink.last_vertex() {
+                Some(last) => bend(slice, sink, last, v, 8, false),
+                None => emit(sink, v),
+            };
+        }
+    });
+    result?;
+    let last = sink.last_vertex().unwrap_or(a);
+    bend(slice, sink, last, b, 8, false)?;
+    Ok(true)
+}
+
+/// How deep, as a share of its width, a depositing move may come into a feature's keep-out
+/// band where no bend keeps it out (see [`bend`]): a hundredth of the width, a sixth of the
+/// deposition raster's cell (`w / 16`) and a few micrometres on a real road.
+const DIP_TOLERANCE: f32 = 0.01;
+
+/// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says; where no bend keeps
+/// out of a feature the move crosses, round it ([`detour`]) if `route` (not on a detour).
 fn bend(
     slice: &Slice,
     sink: &mut impl PathSink,
     a: Vertex,
     b: Vertex,
     depth: u8,
+    route: bool,
 ) -> Result<(), Error> {
     let half = 0.5 * a.width.max(b.width);
     let crossing = slice.segment_crosses_feature(a.at, b.at);
@@ -270,13 +359,20 @@ fn bend(
         return emit(sink, b);
     }
     if depth == 0 || a.at.dist(b.at) < 0.02 * half {
-        return emit(
-            sink,
-            Vertex {
-                deposit: false,
-                ..b
-            },
-        );
+        // Halving found no bend that keeps the road out. A move that comes nearer a feature
+        // by no more than `DIP_TOLERANCE` of its width (a fraction of a micrometre where both
+        // ends sit on keep-out curves and a chord between them sags) is laid as it is: a
+        // break in the road there would be an extrusion start, the dip nothing a printer
+        // could lay or a measurement see.
+        if route && crossing && a.deposit && detour(slice, sink, a, b)? {
+            return Ok(());
+        }
+        let deposit = !crossing
+            && dip.is_none_or(|(t, c)| {
+                let r = 0.5 * (a.width + (b.width - a.width) * t);
+                r - slice.clearance(c) <= DIP_TOLERANCE * a.width.max(b.width)
+            });
+        return emit(sink, Vertex { deposit, ..b });
     }
     let (t, c) = dip.unwrap_or((0.5, a.at.lerp(b.at, 0.5)));
     let width = a.width + (b.width - a.width) * t;
@@ -304,6 +400,9 @@ fn bend(
     };
     if pushed.dist(a.at) < 1e-6 || pushed.dist(b.at) < 1e-6 || !slice.fits(pushed, mid.width, 1e-4)
     {
+        if route && crossing && a.deposit && detour(slice, sink, a, b)? {
+            return Ok(());
+        }
         return emit(
             sink,
             Vertex {
@@ -312,9 +411,9 @@ fn bend(
             },
         );
     }
-    bend(slice, sink, a, mid, depth - 1)?;
+    bend(slice, sink, a, mid, depth - 1, route)?;
     let mid_emitted = sink.last_vertex().unwrap_or(mid);
-    bend(slice, sink, mid_emitted, b, depth - 1)
+    bend(slice, sink, mid_emitted, b, depth - 1, route)
 }
 
 /// Where the depositing move `ab` comes nearer a feature than half its width there (the width
@@ -348,4 +447,75 @@ pub(crate) fn into_region(slice: &Slice, mut p: Point, half: f32) -> (Point, Opt
         }
     }
     (p, onto)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Settings;
+
+    fn slice_with(hole: &[Point]) -> Slice {
+        let wall = [(-10.0, -10.0), (10.0, -10.0), (10.0, 10.0), (-10.0, 10.0)]
+            .map(|(x, y)| Point::new(x, y));
+        let wall = Feature::new(FeatureId::Wall, &wall, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let hole = Feature::new(FeatureId::Hole(0), hole, [0.0, 1.0, 0.0, 0.0]).unwrap();
+        Slice::new(wall, &[hole], Settings::for_road_width(0.4)).unwrap()
+    }
+
+    fn vertex(x: f32, y: f32, deposit: bool) -> Vertex {
+        Vertex {
+            at: Point::new(x, y),
+            material: [0.5, 0.5, 0.0, 0.0],
+            width: 0.4,
+            deposit,
+        }
+    }
+
+    /// Every depositing move of `path` keeps out of the features: its ends fit at its width
+    /// and it crosses no feature's boundary.
+    fn all_in_the_material(slice: &Slice, path: &[Vertex]) -> bool {
+        path.windows(2).all(|m| {
+            !m[1].deposit
+                || (slice.fits(m[1].at, m[1].width, 1e-4)
+                    && !slice.segment_crosses_feature(m[0].at, m[1].at))
+        })
+    }
+
+    #[test]
+    fn a_move_across_a_thin_feature_goes_round_it_in_one_road() {
+        // A sliver of a hole, 0.3 mm wide and 3 mm long: no bend of a straight move across
+        // it keeps half a road off it, so before the detour the road broke here.
+        let sliver =
+            [(-0.15, -1.5), (0.15, -1.5), (0.15, 1.5), (-0.15, 1.5)].map(|(x, y)| Point::new(x, y));
+        let slice = slice_with(&sliver);
+        let mut path: heapless::Vec<Vertex, 512> = heapless::Vec::new();
+        emit_move(&slice, &mut path, vertex(-1.0, 0.2, false)).unwrap();
+        emit_move(&slice, &mut path, vertex(1.0, -0.1, true)).unwrap();
+        assert!(path.len() > 3, "{path:?}");
+        assert!(path.iter().skip(1).all(|v| v.deposit), "{path:?}");
+        assert!(all_in_the_material(&slice, &path), "{path:?}");
+        // Round the sliver's nearer end (the top), in the hole's material on its keep-out
+        // curve.
+        assert!(path.iter().any(|v| v.at.y > 1.5), "{path:?}");
+        assert!(path.iter().all(|v| v.at.y < 2.1), "{path:?}");
+        assert!(path
+            .iter()
+            .any(|v| v.material == [0.0, 1.0, 0.0, 0.0] && v.at.y > 1.6));
+        assert_eq!(path.last().unwrap().at, Point::new(1.0, -0.1));
+    }
+
+    #[test]
+    fn a_move_across_a_large_convex_feature_is_bent_round_it() {
+        // A 10 mm square hole, farther round than a detour goes: the bends (midpoints pushed
+        // out of the feature) go round it, and detours round the corners where a bend's
+        // halves still cross it (before the detour, the road broke at the first corner).
+        let square =
+            [(-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0)].map(|(x, y)| Point::new(x, y));
+        let slice = slice_with(&square);
+        let mut path: heapless::Vec<Vertex, 512> = heapless::Vec::new();
+        emit_move(&slice, &mut path, vertex(-6.0, 0.0, false)).unwrap();
+        emit_move(&slice, &mut path, vertex(6.0, 0.0, true)).unwrap();
+        assert!(path.iter().skip(1).all(|v| v.deposit), "{path:?}");
+        assert!(all_in_the_material(&slice, &path), "{path:?}");
+    }
 }

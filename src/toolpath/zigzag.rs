@@ -238,37 +238,10 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         .push(KeepOut::new(slice.wall(), half, Side::Inside))
         .map_err(|_| Limit::Holes.error())?;
     // Parity: every curve with an odd number of MCL ends leaves one end free, and each pair
-    // of free ends is a separate path. Beyond one path, drop the shortest MCL joining two odd
-    // curves (both turn even) until at most two curves are odd.
+    // of free ends is a separate path. Beyond one path, leave out MCLs until at most two
+    // curves are odd ([`even_out`]).
     let mut active: Vec<u16, MAX_MCLS> = (0..plan.mcls.len() as u16).collect();
-    loop {
-        let mut count = [0u16; CURVES];
-        for &k in active.iter() {
-            let (a, b) = curve_pair(plan, k as usize, holes);
-            count[a] += 1;
-            count[b] += 1;
-        }
-        let odd = |c: usize| count[c] % 2 == 1;
-        if (0..=holes).filter(|&c| odd(c)).count() <= 2 {
-            break;
-        }
-        let mut drop: Option<(usize, f32)> = None;
-        for (i, &k) in active.iter().enumerate() {
-            let (a, b) = curve_pair(plan, k as usize, holes);
-            if odd(a) && odd(b) {
-                let len = polyline::length(&plan.points(&plan.mcls[k as usize]));
-                if drop.is_none_or(|d| len < d.1) {
-                    drop = Some((i, len));
-                }
-            }
-        }
-        match drop {
-            Some((i, _)) => {
-                active.remove(i);
-            }
-            None => break,
-        }
-    }
+    even_out(plan, holes, &mut active);
     let mut stats = ZigzagStats {
         dropped: (plan.mcls.len() - active.len()) as u16,
         ..ZigzagStats::default()
@@ -469,6 +442,123 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         }
     }
     Ok(stats)
+}
+
+/// MCL ends per curve (a hole index, or `holes` for the wall) among the `active` MCLs.
+fn end_counts(plan: &Plan, holes: usize, active: &[u16]) -> [u16; CURVES] {
+    let mut count = [0u16; CURVES];
+    for &k in active {
+        let (a, b) = curve_pair(plan, k as usize, holes);
+        count[a] += 1;
+        count[b] += 1;
+    }
+    count
+}
+
+/// How many separate groups the curves holding MCL ends form, joined by the `active` MCLs.
+fn curve_groups(plan: &Plan, holes: usize, active: &[u16]) -> usize {
+    let mut parent = [0u16; CURVES];
+    for (i, p) in parent.iter_mut().enumerate() {
+        *p = i as u16;
+    }
+    for &k in active {
+        let (a, b) = curve_pair(plan, k as usize, holes);
+        union(&mut parent, a as u16, b as u16);
+    }
+    let count = end_counts(plan, holes, active);
+    (0..=holes)
+        .filter(|&c| count[c] > 0 && find(&mut parent, c as u16) == c as u16)
+        .count()
+}
+
+/// Leaves MCLs out of `active` until at most two curves hold an odd number of MCL ends (a
+/// T-join: every odd curve is a free end, and each pair of free ends a separate path).
+///
+/// Each step takes the shortest chain of MCLs (by length, Dijkstra over the curves) from one
+/// odd curve to another and leaves the whole chain out: its two end curves turn even, and
+/// every curve it passes through loses two ends and keeps its parity. A chain is taken only
+/// if every curve it touches keeps at least one MCL end (each feature's strip is still laid)
+/// and the curves stay as connected as they were (the pieces can still be spliced into one
+/// road). The neighbours' bands reach over the ground of the MCLs left out
+/// (`meander::band_at` measures to the MCLs laid). Where no chain qualifies, the odd curves
+/// that remain stay odd, and the layer needs a start per pair of them.
+fn even_out(plan: &Plan, holes: usize, active: &mut Vec<u16, MAX_MCLS>) {
+    let curves = holes + 1;
+    let mut length = [0.0f32; MAX_MCLS];
+    for &k in active.iter() {
+        length[k as usize] = polyline::length(&plan.points(&plan.mcls[k as usize]));
+    }
+    // Chains found to split the curves or empty one: not tried again.
+    let mut refused: Vec<(u8, u8), { 4 * CURVES }> = Vec::new();
+    loop {
+        let count = end_counts(plan, holes, active);
+        let odd = |c: usize| count[c] % 2 == 1;
+        if (0..curves).filter(|&c| odd(c)).count() <= 2 {
+            return;
+        }
+        let groups = curve_groups(plan, holes, active);
+        // The shortest MCL joining each pair of curves.
+        let mut edge = [[(f32::INFINITY, NONE); CURVES]; CURVES];
+        for &k in active.iter() {
+            let (a, b) = curve_pair(plan, k as usize, holes);
+            if a != b && length[k as usize] < edge[a][b].0 {
+                edge[a][b] = (length[k as usize], k);
+                edge[b][a] = (length[k as usize], k);
+            }
+        }
+        // The shortest chain from each odd curve to the nearest other odd curve.
+        let mut best: Option<(f32, u8, u8, [u16; CURVES])> = None;
+        for src in (0..curves).filter(|&c| odd(c)) {
+            let mut dist = [f32::INFINITY; CURVES];
+            // The MCL by which each curve was reached (NONE for the source).
+            let mut via = [NONE; CURVES];
+            let mut done = [false; CURVES];
+            dist[src] = 0.0;
+            while let Some(c) = (0..curves)
+                .filter(|&c| !done[c] && dist[c].is_finite())
+                .min_by(|&a, &b| dist[a].total_cmp(&dist[b]))
+            {
+                done[c] = true;
+                if c != src && odd(c) && !refused.contains(&(src as u8, c as u8)) {
+                    if best.is_none_or(|b| dist[c] < b.0) {
+                        best = Some((dist[c], src as u8, c as u8, via));
+                    }
+                    break;
+                }
+                for other in 0..curves {
+                    let (len, k) = edge[c][other];
+                    let d = dist[c] + len;
+                    if !done[other] && d < dist[other] {
+                        dist[other] = d;
+                        via[other] = k;
+                    }
+                }
+            }
+        }
+        let Some((_, src, dst, via)) = best else {
+            return;
+        };
+        // Walk the chain back from `dst` and leave it out, unless that empties a curve or
+        // splits the curves.
+        let before: Vec<u16, MAX_MCLS> = active.clone();
+        let mut c = dst as usize;
+        while c != src as usize {
+            let k = via[c];
+            let (a, b) = curve_pair(plan, k as usize, holes);
+            if let Some(i) = active.iter().position(|&m| m == k) {
+                active.remove(i);
+            }
+            c = if a == c { b } else { a };
+        }
+        let after = end_counts(plan, holes, active);
+        let emptied = (0..curves).any(|c| count[c] > 0 && after[c] == 0);
+        if emptied || curve_groups(plan, holes, active) > groups {
+            *active = before;
+            if refused.push((src, dst)).is_err() {
+                return;
+            }
+        }
+    }
 }
 
 /// For every piece (by its union-find root), whether it has a free end: a path, not a loop.
