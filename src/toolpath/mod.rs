@@ -337,10 +337,10 @@ fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Resu
     Ok(true)
 }
 
-/// How deep, as a share of its width, a depositing move may come into a feature's keep-out
-/// band where no bend keeps it out (see [`bend`]): a hundredth of the width, a sixth of the
-/// deposition raster's cell (`w / 16`) and a few micrometres on a real road.
-const DIP_TOLERANCE: f32 = 0.01;
+/// How much narrower, as a share of its width, a move's far end may be laid where no bend
+/// keeps the move out of a keep-out band (see [`bend`]): a chord between two points on the
+/// band's edge sags a few micrometres into it, a road a few per cent narrower clears it.
+const NARROWING: f32 = 0.1;
 
 /// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says; where no bend keeps
 /// out of a feature the move crosses, round it ([`detour`]) if `route` (not on a detour).
@@ -359,20 +359,25 @@ fn bend(
         return emit(sink, b);
     }
     if depth == 0 || a.at.dist(b.at) < 0.02 * half {
-        // Halving found no bend that keeps the road out. A move that comes nearer a feature
-        // by no more than `DIP_TOLERANCE` of its width (a fraction of a micrometre where both
-        // ends sit on keep-out curves and a chord between them sags) is laid as it is: a
-        // break in the road there would be an extrusion start, the dip nothing a printer
-        // could lay or a measurement see.
+        // Halving found no bend that keeps the road out. Where the move only sags into a
+        // keep-out band (both ends sit on its edge), its far end is laid narrower, by as much
+        // as the move then clears the band, up to `NARROWING` of its width and never below
+        // `min_width`: a break in the road there would be an extrusion start.
         if route && crossing && a.deposit && detour(slice, sink, a, b)? {
             return Ok(());
         }
-        let deposit = !crossing
-            && dip.is_none_or(|(t, c)| {
-                let r = 0.5 * (a.width + (b.width - a.width) * t);
-                r - slice.clearance(c) <= DIP_TOLERANCE * a.width.max(b.width)
-            });
-        return emit(sink, Vertex { deposit, ..b });
+        if !crossing {
+            if let Some(narrowed) = narrowed(slice, a, b) {
+                return emit(sink, narrowed);
+            }
+        }
+        return emit(
+            sink,
+            Vertex {
+                deposit: false,
+                ..b
+            },
+        );
     }
     let (t, c) = dip.unwrap_or((0.5, a.at.lerp(b.at, 0.5)));
     let width = a.width + (b.width - a.width) * t;
@@ -414,6 +419,34 @@ fn bend(
     bend(slice, sink, a, mid, depth - 1, route)?;
     let mid_emitted = sink.last_vertex().unwrap_or(mid);
     bend(slice, sink, mid_emitted, b, depth - 1, route)
+}
+
+/// `b` narrowed so that the depositing move from `a` keeps out of every keep-out band (as
+/// [`dip`] finds none), if a width within [`NARROWING`] of its own and at least `min_width`
+/// does: the narrowest is tried in halving steps from the widest that fails.
+fn narrowed(slice: &Slice, a: Vertex, b: Vertex) -> Option<Vertex> {
+    let least = (b.width * (1.0 - NARROWING)).max(slice.settings().min_width);
+    if least > b.width {
+        return None;
+    }
+    let mut probe = b;
+    probe.width = least;
+    if dip(slice, a, probe).is_some() {
+        return None;
+    }
+    // The widest width that clears, found by bisection between `least` (clears) and `b`'s.
+    let (mut lo, mut hi) = (least, b.width);
+    for _ in 0..12 {
+        let mid = 0.5 * (lo + hi);
+        probe.width = mid;
+        if dip(slice, a, probe).is_none() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    probe.width = lo;
+    Some(probe)
 }
 
 /// Where the depositing move `ab` comes nearer a feature than half its width there (the width
