@@ -738,18 +738,28 @@ impl Slice {
 
     /// Whether segment `ab` crosses or touches the boundary of a hole or of the wall.
     pub fn segment_crosses_feature(&self, a: Point, b: Point) -> bool {
-        let meets = |pts: &[Point]| {
-            let n = pts.len();
-            (0..n).any(|k| polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
-        };
+        self.features_crossed(a, b).next().is_some()
+    }
+
+    /// The features (holes first, then the wall) whose boundary segment `ab` crosses or
+    /// touches.
+    pub fn features_crossed(&self, a: Point, b: Point) -> impl Iterator<Item = &Feature> {
         let (lo, hi) = (
             Point::new(a.x.min(b.x), a.y.min(b.y)),
             Point::new(a.x.max(b.x), a.y.max(b.y)),
         );
-        self.holes.iter().any(|h| {
-            let bb = h.bbox;
-            bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y && meets(&h.points)
-        }) || meets(&self.wall.points)
+        self.holes
+            .iter()
+            .chain(core::iter::once(&self.wall))
+            .filter(move |f| {
+                let (bb, pts) = (f.bbox, &f.points);
+                let n = pts.len();
+                bb.0.x <= hi.x
+                    && bb.1.x >= lo.x
+                    && bb.0.y <= hi.y
+                    && bb.1.y >= lo.y
+                    && (0..n).any(|k| polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
+            })
     }
 
     /// The point of segment `ab` nearest to a feature where that is closer than `clearance`,

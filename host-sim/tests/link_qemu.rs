@@ -43,18 +43,13 @@ fn out_dir(what: &str) -> PathBuf {
     out
 }
 
-/// `hollowpath simulate`'s telemetry for four_holes on the CI printer, `layers` layers
-/// (computed once per layer count).
+/// `hollowpath simulate`'s telemetry for four_holes on the CI printer, `layers` layers.
 fn simulated(layers: &str) -> Value {
-    simulated_on(layers, &data("ci_printer.json"))
+    simulated_slice("four_holes.json", layers, &data("ci_printer.json"))
 }
 
-/// The same on `printer`.
-fn simulated_on(layers: &str, printer: &Path) -> Value {
-    simulated_slice("four_holes.json", layers, printer)
-}
-
-/// The same for the slice file `slice` of `host-sim/data`.
+/// The same for the slice file `slice` of `host-sim/data` on `printer` (computed once per
+/// slice, layer count and printer).
 fn simulated_slice(slice: &str, layers: &str, printer: &Path) -> Value {
     type Done = Vec<(String, String, PathBuf, Value)>;
     static DONE: Mutex<Done> = Mutex::new(Vec::new());
@@ -173,17 +168,19 @@ fn tcp(port: u16) -> Vec<String> {
     vec!["--tcp".into(), format!("127.0.0.1:{port}")]
 }
 
-/// Runs a print to its end; its report, stderr and the wall time.
+/// Runs a print of four_holes on the CI printer to its end; its report, stderr and the wall
+/// time.
 fn print_ok(link: &[String], layers: &str, out: &Path) -> (Value, String, f64) {
-    print_ok_on(link, &data("ci_printer.json"), layers, out)
+    print_slice_ok(
+        link,
+        "four_holes.json",
+        &data("ci_printer.json"),
+        layers,
+        out,
+    )
 }
 
-/// The same on `printer`.
-fn print_ok_on(link: &[String], printer: &Path, layers: &str, out: &Path) -> (Value, String, f64) {
-    print_slice_ok(link, "four_holes.json", printer, layers, out)
-}
-
-/// The same for the slice file `slice` of `host-sim/data`.
+/// The same for the slice file `slice` of `host-sim/data` on `printer`.
 fn print_slice_ok(
     link: &[String],
     slice: &str,
@@ -528,7 +525,13 @@ fn printing_over_a_pty_with_the_serialport_crate() {
     std::fs::write(&printer, cfg.to_string()).unwrap();
     let q = Qemu::start(&elf, Serial::Pty, Clock::JumpIdle);
     let pty = q.pty.clone().unwrap_or_else(|| panic!("{}", q.stderr()));
-    let (got, err, wall) = print_ok_on(&["--port".into(), pty.clone()], &printer, "1", &out);
+    let (got, err, wall) = print_slice_ok(
+        &["--port".into(), pty.clone()],
+        "four_holes.json",
+        &printer,
+        "1",
+        &out,
+    );
     drop(q);
     println!(
         "pty {pty}: {wall:.1} s wall for 1 layer, {} frames retransmitted",
@@ -537,7 +540,7 @@ fn printing_over_a_pty_with_the_serialport_crate() {
     if err.contains("line settings") {
         println!("note: {pty} refused the line settings; printed on the raw device");
     }
-    assert_same_telemetry(&got, &simulated_on("1", &printer), 1);
+    assert_same_telemetry(&got, &simulated_slice("four_holes.json", "1", &printer), 1);
     let _ = std::fs::remove_dir_all(&out);
 }
 

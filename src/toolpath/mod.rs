@@ -14,9 +14,9 @@ pub mod raster;
 pub mod spiral;
 pub mod zigzag;
 
-use crate::geometry::{polygon, Point};
+use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
-use crate::{Error, Feature, FeatureId, Limit, Material, Slice};
+use crate::{Error, FeatureId, Limit, Material, Slice};
 
 /// The fill pattern of a layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -229,10 +229,6 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
                     v.at = pushed;
                 } else if room >= slice.settings().min_width {
                     v.width = room;
-                } else if prev.deposit {
-                    // Mid-road: the vertex is left out and the road goes on from the last
-                    // one to the next (a break here would be an extrusion start).
-                    return Ok(());
                 } else {
                     return emit(
                         sink,
@@ -273,28 +269,13 @@ const DETOUR_ROADS: f32 = 24.0;
 /// [`DETOUR_ROADS`] road widths, or where a point of the way round does not fit (the move is
 /// then bent or travelled as before).
 fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Result<bool, Error> {
-    let (lo, hi) = (
-        Point::new(a.at.x.min(b.at.x), a.at.y.min(b.at.y)),
-        Point::new(a.at.x.max(b.at.x), a.at.y.max(b.at.y)),
-    );
-    let crosses = |f: &Feature| {
-        let (blo, bhi) = f.bbox();
-        let pts = f.points();
-        let n = pts.len();
-        blo.x <= hi.x
-            && bhi.x >= lo.x
-            && blo.y <= hi.y
-            && bhi.y >= lo.y
-            && (0..n).any(|k| polygon::segments_meet(a.at, b.at, pts[k], pts[(k + 1) % n]))
-    };
-    let mut crossed = slice
-        .holes()
-        .iter()
-        .map(|h| (h, Side::Outside))
-        .chain(core::iter::once((slice.wall(), Side::Inside)))
-        .filter(|(f, _)| crosses(f));
-    let (Some((feature, side)), None) = (crossed.next(), crossed.next()) else {
+    let mut crossed = slice.features_crossed(a.at, b.at);
+    let (Some(feature), None) = (crossed.next(), crossed.next()) else {
         return Ok(false);
+    };
+    let side = match feature.id() {
+        FeatureId::Wall => Side::Inside,
+        FeatureId::Hole(_) => Side::Outside,
     };
     let width = a.width.min(b.width);
     let curve = KeepOut::new(feature, 0.5 * width, side);
@@ -359,10 +340,10 @@ fn bend(
         return emit(sink, b);
     }
     if depth == 0 || a.at.dist(b.at) < 0.02 * half {
-        // Halving found no bend that keeps the road out. Where the move only sags into a
-        // keep-out band (both ends sit on its edge), its far end is laid narrower, by as much
-        // as the move then clears the band, up to `NARROWING` of its width and never below
-        // `min_width`: a break in the road there would be an extrusion start.
+        // Halving found no bend that keeps the road out, and a break in the road here would
+        // be an extrusion start. A move across a feature goes round it ([`detour`]); a move
+        // that only sags into a keep-out band (both ends sit on its edge) is laid with its far
+        // end narrower, as much as it then clears the band ([`narrowed`]).
         if route && crossing && a.deposit && detour(slice, sink, a, b)? {
             return Ok(());
         }
@@ -423,7 +404,7 @@ fn bend(
 
 /// `b` narrowed so that the depositing move from `a` keeps out of every keep-out band (as
 /// [`dip`] finds none), if a width within [`NARROWING`] of its own and at least `min_width`
-/// does: the narrowest is tried in halving steps from the widest that fails.
+/// does: the widest such width, to within 1/4096 of `NARROWING` (bisection).
 fn narrowed(slice: &Slice, a: Vertex, b: Vertex) -> Option<Vertex> {
     let least = (b.width * (1.0 - NARROWING)).max(slice.settings().min_width);
     if least > b.width {
@@ -485,7 +466,7 @@ pub(crate) fn into_region(slice: &Slice, mut p: Point, half: f32) -> (Point, Opt
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Settings;
+    use crate::{Feature, Settings};
 
     fn slice_with(hole: &[Point]) -> Slice {
         let wall = [(-10.0, -10.0), (10.0, -10.0), (10.0, 10.0), (-10.0, 10.0)]
