@@ -283,15 +283,13 @@ fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
         if !halves[k].alive {
             continue;
         }
-        let inside = halves[k]
-            .points
-            .windows(2)
-            .all(|w| slice.segment_is_printable(w[0], w[1], 1e-3));
+        let inside = slice.polyline_is_printable(&halves[k].points, 1e-3);
         if !inside {
             remove(halves, k, stats);
         }
     }
     for a in 0..halves.len() {
+        let box_a = polyline::bbox(&halves[a].points);
         for b in (a + 1)..halves.len() {
             let (ha, hb) = (&halves[a], &halves[b]);
             if !ha.alive || !hb.alive || ha.partner == Some(b as u16) {
@@ -301,11 +299,7 @@ fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
                 || ha.end == HalfEnd::Bisector(hb.hole)
                 || hb.end == HalfEnd::Bisector(ha.hole);
             if related
-                && polyline::boxes_overlap(
-                    polyline::bbox(&ha.points),
-                    polyline::bbox(&hb.points),
-                    1e-4,
-                )
+                && polyline::boxes_overlap(box_a, polyline::bbox(&hb.points), 1e-4)
                 && polyline::polylines_cross(&ha.points, &hb.points)
             {
                 remove(halves, b, stats);

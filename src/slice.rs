@@ -35,6 +35,9 @@ pub struct Feature {
 
 /// Edges per chunk of a feature's distance index.
 const CHUNK: usize = 16;
+/// How far (relative to the coordinates' size) a rounded edge crossing may lie outside its
+/// edge's x range: a few units in the last place of an `f32`, with room to spare.
+const X_MARGIN: f32 = 1e-5;
 // `n <= MAX_VERTICES` points make at most `MAX_VERTICES / CHUNK` chunks.
 const _: () = assert!(MAX_VERTICES % CHUNK == 0);
 
@@ -232,41 +235,90 @@ impl Feature {
     pub fn bbox(&self) -> (Point, Point) {
         self.bbox
     }
-    /// The nearest boundary point to `p`; chunks of edges whose box is farther than the best
-    /// so far are skipped (nearest chunk first).
+    /// The nearest boundary point to `p`. Of equal distances (a vertex two edges share) the
+    /// one whose chunk of edges has the nearer box wins, then the lower-numbered chunk, then
+    /// the lower-numbered edge: the order a search from the nearest chunk outwards finds them
+    /// in, whatever order the chunks are looked at. The chunk whose box is nearest goes first;
+    /// every other chunk whose box is farther than the best so far is skipped.
     pub fn nearest(&self, p: Point) -> Nearest {
         let n = self.points.len();
         // Filled as needed: a large MAX_VERTICES costs no clearing per query.
-        let mut bounds: Vec<(f32, usize), { MAX_VERTICES / CHUNK }> = Vec::new();
+        let mut bounds: Vec<f32, { MAX_VERTICES / CHUNK }> = Vec::new();
         // One per chunk, and `chunks` has the same capacity: `extend`, which would panic on
         // overflow, cannot.
-        bounds.extend(self.chunks.iter().enumerate().map(|(c, b)| {
-            let d = polygon::bbox_distance(*b, p);
-            (d * d, c)
-        }));
-        bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut best = (self.points[0], f32::INFINITY, 0);
-        for &(lower, c) in bounds.iter() {
-            if lower >= best.1 {
-                break;
-            }
+        bounds.extend(self.chunks.iter().map(|b| polygon::bbox_distance2(*b, p)));
+        let first = (1..bounds.len()).fold(0, |m, c| if bounds[c] < bounds[m] { c } else { m });
+        // (point, squared distance, edge, chunk)
+        let visit = |c: usize, best: &mut (Point, f32, usize, usize)| {
+            let ahead = best.1 == f32::INFINITY || (bounds[c], c) < (bounds[best.3], best.3);
             for k in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let (q, _) =
                     polyline::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
                 let d2 = (q - p).norm2();
-                if d2 < best.1 {
-                    best = (q, d2, k);
+                if d2 < best.1 || (d2 == best.1 && ahead && best.3 != c) {
+                    *best = (q, d2, k, c);
                 }
             }
+        };
+        let mut best = (self.points[0], f32::INFINITY, 0, first);
+        visit(first, &mut best);
+        for (c, &lower) in bounds.iter().enumerate() {
+            // A box as far as the best may still hold a point as near that wins the tie.
+            if c != first && lower <= best.1 {
+                visit(c, &mut best);
+            }
         }
-        let d = libm::sqrtf(best.1);
-        let inside =
-            polygon::bbox_distance(self.bbox, p) == 0.0 && polygon::contains(&self.points, p);
+        let d = hollowpath_fpu::sqrtf(best.1);
+        let inside = polygon::bbox_distance2(self.bbox, p) == 0.0 && self.contains(p);
         Nearest {
             point: best.0,
             distance: if inside { -d } else { d },
             edge: best.2,
         }
+    }
+
+    /// Whether `p` is inside the polygon: [`polygon::contains`]'s even-odd crossing test,
+    /// with the same answer, on the edges of the chunks whose box straddles `p`'s horizontal
+    /// line right of `p` only. An edge flips the count only if one end is above `p.y` and the
+    /// other is not, and where it crosses that line lies within its ends' x range (to within
+    /// rounding, which `X_MARGIN` covers), so every chunk skipped would have flipped nothing.
+    pub fn contains(&self, p: Point) -> bool {
+        let n = self.points.len();
+        let mut inside = false;
+        for (c, b) in self.chunks.iter().enumerate() {
+            // Relative to the box's size: the crossing's x is rounded once or twice.
+            let margin = X_MARGIN * (1.0 + libm::fabsf(b.0.x) + libm::fabsf(b.1.x));
+            if b.1.y <= p.y || b.0.y > p.y || b.1.x + margin < p.x {
+                continue;
+            }
+            for k in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (a, b) = (self.points[(k + 1) % n], self.points[k]);
+                if (a.y > p.y) != (b.y > p.y) {
+                    let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+                    if p.x < x {
+                        inside = !inside;
+                    }
+                }
+            }
+        }
+        inside
+    }
+
+    /// The edges (start, end) of every chunk whose box meets box `b`, chunk by chunk in the
+    /// polygon's order: what a search for edges or vertices within `b` need look at. Each
+    /// edge's start is one vertex, so the starts of all chunks are every vertex once.
+    fn chunks_near(
+        &self,
+        b: (Point, Point),
+    ) -> impl Iterator<Item = impl Iterator<Item = (Point, Point)> + '_> + '_ {
+        let (pts, n) = (&self.points, self.points.len());
+        self.chunks
+            .iter()
+            .enumerate()
+            .filter(move |(_, cb)| polygon::boxes_meet(**cb, b))
+            .map(move |(c, _)| {
+                (c * CHUNK..((c + 1) * CHUNK).min(n)).map(move |k| (pts[k], pts[(k + 1) % n]))
+            })
     }
 
     /// Distance from `p` to the boundary, negative inside the polygon.
@@ -726,7 +778,16 @@ impl Slice {
     /// The distance from `p` to the nearest feature (a hole or the wall), positive in the
     /// material.
     pub fn clearance(&self, p: Point) -> f32 {
-        self.wall_clearance(p).min(self.nearest_holes(p).1)
+        // The nearest hole only (not the second, as `nearest_holes` finds): a hole whose box
+        // is no nearer than the nearest so far is skipped.
+        let mut best = self.wall_clearance(p);
+        for h in self.holes.iter() {
+            if polygon::bbox_distance(h.bbox, p) >= best {
+                continue;
+            }
+            best = best.min(h.signed_distance(p));
+        }
+        best
     }
 
     /// Whether a road `width` wide centred at `p` stays in the material: inside the wall and
@@ -752,13 +813,12 @@ impl Slice {
             .iter()
             .chain(core::iter::once(&self.wall))
             .filter(move |f| {
-                let (bb, pts) = (f.bbox, &f.points);
-                let n = pts.len();
-                bb.0.x <= hi.x
-                    && bb.1.x >= lo.x
-                    && bb.0.y <= hi.y
-                    && bb.1.y >= lo.y
-                    && (0..n).any(|k| polygon::segments_meet(a, b, pts[k], pts[(k + 1) % n]))
+                polygon::boxes_meet(f.bbox, (lo, hi))
+                    && f.chunks_near((lo, hi)).any(|edges| {
+                        edges
+                            .into_iter()
+                            .any(|(p, q)| polygon::segments_meet(a, b, p, q))
+                    })
             })
     }
 
@@ -783,20 +843,23 @@ impl Slice {
     fn vertices_near(&self, a: Point, b: Point, r: f32, mut f: impl FnMut(Point)) {
         let lo = Point::new(a.x.min(b.x) - r, a.y.min(b.y) - r);
         let hi = Point::new(a.x.max(b.x) + r, a.y.max(b.y) + r);
-        let mut consider = |pts: &[Point]| {
-            for &q in pts {
-                if q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y {
-                    f(q);
+        // Only the chunks whose box meets the query's can hold such a vertex; the rest are
+        // skipped, and the vertices come in the same order as over the whole polygon.
+        let mut consider = |feature: &Feature| {
+            for edges in feature.chunks_near((lo, hi)) {
+                for (q, _) in edges {
+                    if q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y {
+                        f(q);
+                    }
                 }
             }
         };
         for h in self.holes.iter() {
-            let bb = h.bbox;
-            if bb.0.x <= hi.x && bb.1.x >= lo.x && bb.0.y <= hi.y && bb.1.y >= lo.y {
-                consider(&h.points);
+            if polygon::boxes_meet(h.bbox, (lo, hi)) {
+                consider(h);
             }
         }
-        consider(&self.wall.points);
+        consider(&self.wall);
     }
 
     /// [`Slice::segment_dip`] for a road whose half-width tapers linearly from `ra` at `a` to
@@ -824,7 +887,7 @@ impl Slice {
             } else {
                 let u = (q - a).dot(ab) / len;
                 let h = libm::fabsf((q - a).cross(ab)) / len;
-                ((u + k * h / libm::sqrtf(1.0 - k * k)) / len).clamp(0.0, 1.0)
+                ((u + k * h / hollowpath_fpu::sqrtf(1.0 - k * k)) / len).clamp(0.0, 1.0)
             };
             let c = a + ab * t;
             let depth = ra + (rb - ra) * t - c.dist(q);
@@ -833,6 +896,17 @@ impl Slice {
             }
         });
         best.map(|(_, t, c)| (t, c))
+    }
+
+    /// Whether every segment of the polyline `pts` is printable
+    /// ([`segment_is_printable`](Self::segment_is_printable)), each point measured once.
+    pub fn polyline_is_printable(&self, pts: &[Point], tol: f32) -> bool {
+        let half = 0.5 * self.settings.road_width;
+        (pts.len() < 2 || pts.iter().all(|&p| self.is_printable(p, tol)))
+            && pts.windows(2).all(|w| {
+                !self.segment_crosses_feature(w[0], w[1])
+                    && self.segment_dip(w[0], w[1], half - tol).is_none()
+            })
     }
 
     /// Whether the whole segment `ab` lies in the printable region (within `tol`): both ends

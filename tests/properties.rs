@@ -258,3 +258,43 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// `Feature::contains` (and so the sign of every distance) skips chunks of edges; it must
+    /// answer exactly as the plain even-odd test over every edge, also for points level with a
+    /// vertex, on an edge, or at a vertex, and for polygons far from the origin.
+    #[test]
+    fn chunked_containment_answers_as_the_plain_crossing_test(
+        r in 0.5f32..40.0,
+        wobble in 0.0f32..0.45,
+        lobes in 2.0f32..9.0,
+        n in 3usize..256,
+        off in (-900.0f32..900.0, -900.0f32..900.0),
+        queries in proptest::collection::vec((-1.3f32..1.3, -1.3f32..1.3, 0usize..256, 0u8..4), 64),
+    ) {
+        let pts = blob(Point::new(off.0, off.1), r, 1.0, 0.8, wobble, lobes.floor(), 0.3, n);
+        let Ok(f) = Feature::new(FeatureId::Hole(0), &pts, [0.0, 1.0, 0.0, 0.0]) else {
+            return Ok(());
+        };
+        let v = f.points();
+        for (qx, qy, k, kind) in queries {
+            let free = Point::new(off.0 + qx * r, off.1 + qy * r);
+            let (a, b) = (v[k % v.len()], v[(k + 1) % v.len()]);
+            let p = match kind {
+                0 => free,
+                // Level with a vertex (the crossing test's edge case).
+                1 => Point::new(free.x, a.y),
+                // On an edge, and at a vertex.
+                2 => a + (b - a) * 0.5,
+                _ => a,
+            };
+            prop_assert_eq!(
+                f.contains(p),
+                hollowpath::geometry::polygon::contains(v, p),
+                "point {:?}", p
+            );
+        }
+    }
+}

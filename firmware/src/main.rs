@@ -115,6 +115,7 @@ fn main() -> ! {
     while cortex_m::peripheral::SYST::get_current() == 0 {}
 
     stack::paint();
+    check_sqrt();
     let planner = PLANNER.take();
     let offset = OFFSET.take();
     for (k, r) in slice_data::SLICES.iter().enumerate() {
@@ -132,6 +133,28 @@ fn main() -> ! {
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
     loop {}
+}
+
+/// The FPU's square root (`hollowpath_fpu::sqrtf`, which the core computes with) against
+/// libm's software one that the host's plans are checked against: the same bits on two
+/// million inputs spread over every exponent (NaN for NaN), or the bench fails.
+fn check_sqrt() {
+    let mut bits = 0u32;
+    let mut checked = 0u32;
+    loop {
+        let x = f32::from_bits(bits);
+        let (a, b) = (hollowpath_fpu::sqrtf(x), libm::sqrtf(x));
+        if a.to_bits() != b.to_bits() && !(a.is_nan() && b.is_nan()) {
+            hprintln!("sqrt {:e}: fpu {:e}, libm {:e}", x, a, b);
+            fail("sqrt", "the FPU's square root differs from libm's");
+        }
+        checked += 1;
+        match bits.checked_add(2_111) {
+            Some(next) => bits = next,
+            None => break,
+        }
+    }
+    hprintln!("sqrt checked {} inputs: the FPU's equal libm's", checked);
 }
 
 /// Streams the zigzag of `r`, the slice the planner planned last, into the motion controller

@@ -84,7 +84,7 @@ impl Grid {
 
     /// The largest square (side, mm) a grid `h` apart with at most `max_nodes` nodes covers.
     pub fn square_side(h: f32, max_nodes: usize) -> f32 {
-        (libm::floorf(libm::sqrtf(max_nodes as f32)) - 3.0).max(0.0) * h
+        (libm::floorf(hollowpath_fpu::sqrtf(max_nodes as f32)) - 3.0).max(0.0) * h
     }
 
     /// Number of nodes.

@@ -34,9 +34,9 @@ impl Point {
     pub fn norm2(self) -> f32 {
         self.dot(self)
     }
-    /// Length (`libm::sqrtf`).
+    /// Length (`hollowpath_fpu::sqrtf`).
     pub fn norm(self) -> f32 {
-        libm::sqrtf(self.norm2())
+        hollowpath_fpu::sqrtf(self.norm2())
     }
     /// Distance to another point.
     pub fn dist(self, o: Point) -> f32 {

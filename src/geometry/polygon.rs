@@ -57,7 +57,7 @@ pub fn closest(pts: &[Point], p: Point) -> (Point, f32, usize) {
             best = (c, 0.0, i);
         }
     }
-    best.1 = libm::sqrtf(best_d2);
+    best.1 = hollowpath_fpu::sqrtf(best_d2);
     best
 }
 
@@ -155,7 +155,18 @@ pub fn bbox(pts: &[Point]) -> (Point, Point) {
 
 /// Distance from `p` to a box, 0 inside: a lower bound of the distance to what the box holds.
 pub fn bbox_distance(b: (Point, Point), p: Point) -> f32 {
+    hollowpath_fpu::sqrtf(bbox_distance2(b, p))
+}
+
+/// The square of [`bbox_distance`], without its square root (a software routine on the
+/// Cortex-M4F's libm, dozens of instructions): for comparing with squared distances.
+pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
     let dx = (b.0.x - p.x).max(p.x - b.1.x).max(0.0);
     let dy = (b.0.y - p.y).max(p.y - b.1.y).max(0.0);
-    libm::sqrtf(dx * dx + dy * dy)
+    dx * dx + dy * dy
+}
+
+/// Whether two boxes (min, max) share a point.
+pub fn boxes_meet(a: (Point, Point), b: (Point, Point)) -> bool {
+    a.0.x <= b.1.x && b.0.x <= a.1.x && a.0.y <= b.1.y && b.0.y <= a.1.y
 }

@@ -109,11 +109,26 @@ pub fn simplify<const N: usize>(
 /// assert!(!polylines_cross(&[p(0.0, 0.0), p(1.0, 0.0)], &[p(1.0, 0.0), p(1.0, 1.0)])); // shared end
 /// ```
 pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
+    // A segment of `p` clear of `q`'s box meets none of `q`'s segments (each is in that box):
+    // one box test instead of one per segment of `q`.
+    let qb = bbox(q);
+    // Likewise only the run of `q`'s segments from the first to the last that meets `p`'s box
+    // can meet a segment of `p`.
+    let pb = bbox(p);
+    let meets_p = |b: &[Point]| super::polygon::boxes_meet(bbox(b), pb);
+    let Some(first) = q.windows(2).position(meets_p) else {
+        return false;
+    };
+    let last = q.len() - 1 - q.windows(2).rev().position(meets_p).unwrap_or(0);
+    let q = &q[first..last.max(first + 1) + 1];
     for a in p.windows(2) {
         let (alo, ahi) = (
             Point::new(a[0].x.min(a[1].x), a[0].y.min(a[1].y)),
             Point::new(a[0].x.max(a[1].x), a[0].y.max(a[1].y)),
         );
+        if !super::polygon::boxes_meet((alo, ahi), qb) {
+            continue;
+        }
         for b in q.windows(2) {
             // Boxes apart: the segments cannot meet.
             if b[0].x.max(b[1].x) < alo.x

@@ -10,13 +10,14 @@
 
 use heapless::Vec;
 
-use crate::cells::{away_from_hole, bisect};
+use crate::cells::bisect;
 use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, TRACE_POINTS};
 use crate::field::Field;
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polygon, polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::mcl::{Half, HalfEnd};
 use crate::plan::PlanStats;
+use crate::slice::Nearest;
 use crate::{Error, FeatureId, Limit, Slice};
 
 /// Largest distance between the far ends of neighbouring halves, in road widths.
@@ -226,8 +227,9 @@ fn trace(
     let half = 0.5 * w;
     let h = field.grid().h;
     let step = 0.5 * h.min(w);
-    let direction = |x: Point| {
-        let (n, d) = away_from_hole(slice, i, x);
+    // The direction at `x`, whose nearest point of hole `i` is `near`.
+    let direction_at = |x: Point, near: Nearest| {
+        let (n, d) = (near.gradient(x), near.distance);
         let weight = ((d - half) / h).clamp(0.0, 1.0);
         match field.gradient(x, i) {
             Some(g) if g.norm2() > 1e-12 => {
@@ -236,6 +238,7 @@ fn trace(
             _ => n,
         }
     };
+    let direction = |x: Point| direction_at(x, slice.holes()[i].nearest(x));
     let own = |x: Point| slice.holes()[i].signed_distance(x);
     let others = |x: Point| {
         (0..slice.holes().len())
@@ -243,11 +246,25 @@ fn trace(
             .map(|c| (c, slice.holes()[c].signed_distance(x)))
             .fold((i, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     };
+    // Whether another hole is as near `x` as `d` (`others(x).1 <= d`), measuring only the
+    // holes whose box is not clearly farther than `d` (by more than rounding could move
+    // either: a hole's distance is at least its box's).
+    let other_within = |x: Point, d: f32| {
+        let far = d + BOX_SLACK * (1.0 + x.x.abs().max(x.y.abs()));
+        slice.holes().iter().enumerate().any(|(c, f)| {
+            c != i
+                && (d < 0.0 || polygon::bbox_distance2(f.bbox(), x) <= far * far)
+                && f.signed_distance(x) <= d
+        })
+    };
     out.clear();
     out.push(start).ok()?;
     let mut p = start;
+    // Hole `i`'s nearest point to `p`: measured once for the step that ends at `p` and the
+    // one that starts there.
+    let mut near_p = slice.holes()[i].nearest(p);
     while out.len() < TRACE_POINTS - 1 {
-        let d1 = direction(p);
+        let d1 = direction_at(p, near_p);
         let d2 = direction(p + d1 * (0.5 * step));
         let q = p + d2 * step;
         if slice.wall_clearance(q) < half {
@@ -255,9 +272,9 @@ fn trace(
             out.push(e).ok()?;
             return Some(HalfEnd::Wall);
         }
-        let dq = own(q);
-        let (_, dother) = others(q);
-        if dother <= dq {
+        let near_q = slice.holes()[i].nearest(q);
+        let dq = near_q.distance;
+        if other_within(q, dq) {
             let e = bisect(p, q, |x| others(x).1 - own(x));
             let (j, _) = others(e);
             out.push(e).ok()?;
@@ -268,6 +285,11 @@ fn trace(
         }
         out.push(q).ok()?;
         p = q;
+        near_p = near_q;
     }
     None
 }
+
+/// How far (relative to the coordinates' size) rounding may move a distance measured to a
+/// polygon or to its box: an `f32` rounds within 6e-8 of a value, a few roundings deep.
+const BOX_SLACK: f32 = 1e-5;

@@ -247,13 +247,26 @@ pub(crate) fn crosses_finished(
     skip: &[usize],
     holes: &[u8],
 ) -> bool {
+    crosses_finished_boxed(halves, |_, h| polyline::bbox(&h.points), pts, skip, holes)
+}
+
+/// [`crosses_finished`] with each half's bounding box from `box_of` (the half's index and
+/// the half): a caller that checks many moves keeps the boxes instead of measuring every half
+/// again for each.
+pub(crate) fn crosses_finished_boxed(
+    halves: &[Half],
+    box_of: impl Fn(usize, &Half) -> (Point, Point),
+    pts: &[Point],
+    skip: &[usize],
+    holes: &[u8],
+) -> bool {
     let bb = polyline::bbox(pts);
     halves.iter().enumerate().any(|(k, h)| {
         h.alive
             && holes.contains(&h.hole)
             && !skip.contains(&k)
             && (h.end == HalfEnd::Wall || h.partner.is_some())
-            && polyline::boxes_overlap(bb, polyline::bbox(&h.points), 1e-4)
+            && polyline::boxes_overlap(bb, box_of(k, h), 1e-4)
             && polyline::polylines_cross(pts, &h.points)
     })
 }

@@ -16,7 +16,7 @@ use crate::config::MAX_HALVES;
 use crate::error::{Error, Limit};
 use crate::geometry::{polygon, polyline, Point};
 use crate::mcl::insert::sorted_halves;
-use crate::mcl::matching::crosses_finished;
+use crate::mcl::matching::crosses_finished_boxed;
 use crate::mcl::{Half, HalfEnd};
 use crate::plan::PlanStats;
 use crate::Slice;
@@ -66,6 +66,15 @@ pub fn relax(
     let settings = *slice.settings();
     let spacing = settings.relax_spacing;
     let ring = ring_neighbours(halves, slice.holes().len())?;
+    // Every half's bounding box, kept up to date as ends move: each move is checked against
+    // the halves around it, and measuring all of them again for each was most of the work.
+    let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
+    for h in halves.iter() {
+        // Never full: one box per half, and `halves` has the same capacity.
+        boxes
+            .push(polyline::bbox(&h.points))
+            .map_err(|_| Limit::Halves.error())?;
+    }
     for _ in 0..settings.relax_iterations {
         // Jacobi-style: every step is computed from the same state, then applied, so the
         // result does not depend on the order of the ends (symmetric slices stay symmetric).
@@ -79,7 +88,7 @@ pub fn relax(
         }
         let mut moved = false;
         for (&e, &step) in list.iter().zip(steps.iter()) {
-            if step.norm2() > 0.0 && try_move(slice, cells, halves, e as usize, step) {
+            if step.norm2() > 0.0 && try_move(slice, cells, halves, &mut boxes, e as usize, step) {
                 stats.relax_moves += 1;
                 moved = true;
             }
@@ -158,10 +167,12 @@ fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spac
 }
 
 /// Moves end `e` by (the projection onto its curve of) `push`; false if the move is refused.
+/// `boxes` holds every half's bounding box, and is kept so.
 fn try_move(
     slice: &Slice,
     cells: &Cells,
     halves: &mut Vec<Half, MAX_HALVES>,
+    boxes: &mut [(Point, Point)],
     e: usize,
     push: Point,
 ) -> bool {
@@ -217,9 +228,10 @@ fn try_move(
     });
     let skip = [e, partner.unwrap_or(e)];
     let holes = [a.hole, b.as_ref().map_or(a.hole, |b| b.hole)];
-    if crosses_finished(halves, &a.points, &skip, &holes)
+    let box_of = |k: usize, _: &Half| boxes[k];
+    if crosses_finished_boxed(halves, box_of, &a.points, &skip, &holes)
         || b.as_ref()
-            .is_some_and(|b| crosses_finished(halves, &b.points, &skip, &holes))
+            .is_some_and(|b| crosses_finished_boxed(halves, box_of, &b.points, &skip, &holes))
     {
         return false;
     }
@@ -229,8 +241,10 @@ fn try_move(
             b.on_bisector = Some(nu);
         }
     }
+    boxes[e] = polyline::bbox(&a.points);
     halves[e] = a;
     if let (Some(p), Some(b)) = (partner, b) {
+        boxes[p] = polyline::bbox(&b.points);
         halves[p] = b;
     }
     true

@@ -294,7 +294,7 @@ impl BlockMaker {
         if steps == [0; AXES] {
             return Ok(None);
         }
-        let length = libm::sqrtf(len2);
+        let length = hollowpath_fpu::sqrtf(len2);
         let mut unit = [0.0; AXES];
         let mut nominal = speed;
         let mut accel = f32::INFINITY;
@@ -353,10 +353,10 @@ pub fn junction_speed(a: &Block, b: &Block, deviation: f32) -> f32 {
         // Straight on.
         return limit;
     }
-    let sin_half = libm::sqrtf(0.5 * (1.0 - cos));
+    let sin_half = hollowpath_fpu::sqrtf(0.5 * (1.0 - cos));
     let accel = a.accel.min(b.accel);
     let v2 = accel * deviation * sin_half / (1.0 - sin_half);
-    libm::sqrtf(v2).min(limit)
+    hollowpath_fpu::sqrtf(v2).min(limit)
 }
 
 /// The fastest a depositing block `b` may run after `a` where its road is narrower: the
@@ -492,7 +492,7 @@ impl<const N: usize> Planner<N> {
             let mut v = 0.0f32;
             for k in (0..=cand).rev() {
                 let b = &self.ring[self.index(k)];
-                v = libm::sqrtf(v * v + 2.0 * self.decel(b, v) * b.length);
+                v = hollowpath_fpu::sqrtf(v * v + 2.0 * self.decel(b, v) * b.length);
                 if k > 0 {
                     v = v.min(b.max_entry);
                 }
@@ -550,7 +550,7 @@ impl<const N: usize> Planner<N> {
             }
             let decel = self.decel(&self.ring[i], next_entry);
             let b = &mut self.ring[i];
-            let brake = libm::sqrtf(next_entry * next_entry + 2.0 * decel * b.length);
+            let brake = hollowpath_fpu::sqrtf(next_entry * next_entry + 2.0 * decel * b.length);
             let rev = b.max_entry.min(brake);
             if early && k + 1 < self.len && rev.to_bits() == b.rev.to_bits() {
                 return k + 1;
@@ -578,7 +578,7 @@ impl<const N: usize> Planner<N> {
             };
             let b = &self.ring[i];
             let entry = if k == 0 { v } else { v.min(b.rev) };
-            let reach = libm::sqrtf(entry * entry + 2.0 * b.accel * b.length);
+            let reach = hollowpath_fpu::sqrtf(entry * entry + 2.0 * b.accel * b.length);
             let exit = if b.pause_after {
                 0.0
             } else {
@@ -593,7 +593,11 @@ impl<const N: usize> Planner<N> {
             b.entry = entry;
             b.exit = exit;
             b.decel = decel;
-            b.cruise = b.nominal.min(libm::sqrtf(peak2)).max(entry).max(exit);
+            b.cruise = b
+                .nominal
+                .min(hollowpath_fpu::sqrtf(peak2))
+                .max(entry)
+                .max(exit);
             v = exit;
         }
     }
@@ -634,8 +638,8 @@ mod tests {
         ]);
         let jd = 0.01;
         // 90 degrees: v^2 = a jd sin45 / (1 - sin45).
-        let s = libm::sqrtf(0.5);
-        let want = libm::sqrtf(b[0].accel.min(b[1].accel) * jd * s / (1.0 - s));
+        let s = hollowpath_fpu::sqrtf(0.5);
+        let want = hollowpath_fpu::sqrtf(b[0].accel.min(b[1].accel) * jd * s / (1.0 - s));
         assert!((junction_speed(&b[0], &b[1], jd) - want).abs() < 1e-4);
         // A reversal stops; straight on keeps the nominal speed.
         assert_eq!(junction_speed(&b[2], &b[3], jd), 0.0);

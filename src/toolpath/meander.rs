@@ -129,7 +129,7 @@ fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
         let k = n.dot(d);
         let disc = k * k - d.dot(d) + off * off;
         if disc >= 0.0 {
-            let t = k - libm::sqrtf(disc);
+            let t = k - hollowpath_fpu::sqrtf(disc);
             if t >= 0.0 {
                 best = best.min(t);
             }
@@ -138,7 +138,7 @@ fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
     // The interior: the signed distance to the line, h0 + t (n . m), is +-off with its foot
     // inside the segment.
     if len2 > 1e-18 {
-        let len = libm::sqrtf(len2);
+        let len = hollowpath_fpu::sqrtf(len2);
         let m = Point::new(-e.y / len, e.x / len);
         let h0 = (p - a).dot(m);
         let nm = n.dot(m);
@@ -166,7 +166,7 @@ fn box_dist2(p: Point, (lo, hi): (Point, Point)) -> f32 {
 
 /// The distance from `p` to the box `(lo, hi)` (0 inside it).
 fn box_dist(p: Point, bbox: (Point, Point)) -> f32 {
-    libm::sqrtf(box_dist2(p, bbox))
+    hollowpath_fpu::sqrtf(box_dist2(p, bbox))
 }
 
 /// The features' edges a ray from `p` may meet within `limit`, each with the least `t` at
