@@ -70,6 +70,15 @@ impl Plan {
         )
     }
 
+    /// The points of an MCL as [`points`](Self::points) gives them, without copying them.
+    pub fn points_iter(&self, mcl: &Mcl) -> impl Iterator<Item = Point> + '_ {
+        let first = self.halves[mcl.first as usize].points.iter();
+        let second = mcl
+            .second
+            .map(|s| self.halves[s as usize].points.iter().rev().skip(1));
+        first.chain(second.into_iter().flatten()).copied()
+    }
+
     /// The bisector pieces.
     pub fn bisectors(&self) -> &[Bisector] {
         &self.cells.bisectors

@@ -304,6 +304,19 @@ impl Feature {
         inside
     }
 
+    /// The feature's edges in runs of consecutive edges, each run with the box around it (edge
+    /// `k` runs from vertex `k` to vertex `k + 1`, the last one back to vertex 0): a search may
+    /// rule out a whole run by its box.
+    pub fn edge_runs(
+        &self,
+    ) -> impl Iterator<Item = ((Point, Point), core::ops::Range<usize>)> + '_ {
+        let n = self.points.len();
+        self.chunks
+            .iter()
+            .enumerate()
+            .map(move |(c, b)| (*b, c * CHUNK..((c + 1) * CHUNK).min(n)))
+    }
+
     /// The edges (start, end) of every chunk whose box meets box `b`, chunk by chunk in the
     /// polygon's order: what a search for edges or vertices within `b` need look at. Each
     /// edge's start is one vertex, so the starts of all chunks are every vertex once.

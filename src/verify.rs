@@ -3,7 +3,7 @@
 //! [`verify`] re-derives each property from the slice and the plan alone (no planner state),
 //! so tests, the host tool and the firmware can check a plan before anything is printed.
 
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polyline, Point};
 use crate::{FeatureId, Plan, Slice, Target};
 
 /// A property of a plan that does not hold.
@@ -119,18 +119,11 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     return Err(Violation::OutsideRegion { mcl: id, at: p });
                 }
             }
-            for (i, h) in slice.holes().iter().enumerate() {
-                if crosses_polygon(w[0], w[1], h.points()) {
-                    return Err(Violation::CrossesFeature {
-                        mcl: id,
-                        feature: FeatureId::Hole(i as u8),
-                    });
-                }
-            }
-            if crosses_polygon(w[0], w[1], slice.wall().points()) {
+            // The holes in order, then the wall.
+            if let Some(f) = slice.features_crossed(w[0], w[1]).next() {
                 return Err(Violation::CrossesFeature {
                     mcl: id,
-                    feature: FeatureId::Wall,
+                    feature: f.id(),
                 });
             }
         }
@@ -168,9 +161,4 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
         }
     }
     Ok(())
-}
-
-fn crosses_polygon(a: Point, b: Point, poly: &[Point]) -> bool {
-    let n = poly.len();
-    (0..n).any(|k| polygon::segments_meet(a, b, poly[k], poly[(k + 1) % n]))
 }

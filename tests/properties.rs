@@ -121,6 +121,9 @@ proptest! {
                 "hole {} has no MCL", i
             );
         }
+        for m in plan.mcls.iter() {
+            prop_assert!(plan.points_iter(m).eq(plan.points(m).iter().copied()));
+        }
         let digest = plan.digest();
         // The layers on the plan: every road in the region, compositions blended, the
         // features' own materials at them, as many starts as the generators report.

@@ -5,9 +5,12 @@
 //!
 //! The lines a script reads: `bench PHASE SLICE INSTRUCTIONS` per phase (`validate`, `plan`,
 //! `verify`, `zigzag`, `offset_spiral`) and slice, `bench lookahead|step_isr four_holes N`
-//! per move or step, and last `ram static BYTES stack BYTES` (the statics and the painted
-//! stack's peak over the whole run). The host test `host-sim/tests/mcu.rs` compares the
-//! digests with the host's: the plans must be bit-identical.
+//! per move or step, `stack PHASE SLICE BYTES` (the stack's peak during that phase, painted
+//! afresh before it, the frames of `main` and `bench_slice` included), and last `ram static
+//! BYTES stack BYTES` (the statics and the painted stack's peak over the whole run). Before
+//! any of it the FPU's square root is checked against libm's (`sqrt checked N inputs`). The
+//! host test `host-sim/tests/mcu.rs` compares the digests with the host's: the plans must be
+//! bit-identical.
 #![no_std]
 #![no_main]
 
@@ -122,10 +125,12 @@ fn main() -> ! {
         bench_slice(r, planner, offset);
         if k == 0 {
             // four_holes: its plan is still the planner's.
+            stack::paint();
             bench_motion(r, planner);
+            hprintln!("stack motion {} {}", r.name, stack::peak());
         }
     }
-    let (statics, peak) = (stack::statics(), stack::peak());
+    let (statics, peak) = (stack::statics(), stack::highest());
     hprintln!("ram static {} stack {}", statics, peak);
     if peak >= stack::room() {
         fail("stack", "no paint left: the stack reached the statics");
@@ -216,13 +221,21 @@ fn bench_motion(r: &slice_data::RefSlice, planner: &Planner) {
 #[inline(never)]
 fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut OffsetSpiral) {
     let name = r.name;
-    let t0 = ticks();
+    // Each phase: the stack painted before it, its instructions and stack peak after.
+    let start = || {
+        stack::paint();
+        ticks()
+    };
+    let done = |t: u64| ((ticks() - t) * INSNS_PER_TICK, stack::peak());
+    let t = start();
     let slice = built_in_slice(r);
-    let t1 = ticks();
+    let validate = done(t);
+    let t = start();
     let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
-    let t2 = ticks();
+    let planned = done(t);
+    let t = start();
     let verdict = hollowpath::verify::verify(&slice, plan);
-    let t3 = ticks();
+    let verified = done(t);
     hprintln!(
         "slice {} mcls {} bisectors {} branch_points {} digest {:016x}",
         name,
@@ -235,9 +248,9 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
         fail("verify", v);
     }
     let mut sink = DigestSink::new();
-    let t4 = ticks();
+    let t = start();
     zigzag(&slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
-    let t5 = ticks();
+    let zigzagged = done(t);
     hprintln!(
         "layer {} 0 vertices {} digest {:016x}",
         name,
@@ -245,11 +258,11 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
         sink.digest()
     );
     let mut sink = DigestSink::new();
-    let t6 = ticks();
+    let t = start();
     let stats = offset
         .build(&slice, plan, &mut sink)
         .unwrap_or_else(|e| fail("offset spiral", e));
-    let t7 = ticks();
+    let spiralled = done(t);
     hprintln!(
         "layer {} 1 vertices {} digest {:016x} jumps {}",
         name,
@@ -261,26 +274,27 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
     // the walk runs (and it must lay the same path).
     let first = (sink.len(), sink.digest());
     let mut sink = DigestSink::new();
-    let t8 = ticks();
+    let t = start();
     offset
         .build(&slice, plan, &mut sink)
         .unwrap_or_else(|e| fail("offset spiral, prepared", e));
-    let t9 = ticks();
+    let prepared = done(t);
     if (sink.len(), sink.digest()) != first {
         fail(
             "offset spiral, prepared",
             "another path than the first build's",
         );
     }
-    for (phase, t) in [
-        ("validate", t1 - t0),
-        ("plan", t2 - t1),
-        ("verify", t3 - t2),
-        ("zigzag", t5 - t4),
-        ("offset_spiral", t7 - t6),
-        ("offset_spiral_prepared", t9 - t8),
+    for (phase, (insns, stack)) in [
+        ("validate", validate),
+        ("plan", planned),
+        ("verify", verified),
+        ("zigzag", zigzagged),
+        ("offset_spiral", spiralled),
+        ("offset_spiral_prepared", prepared),
     ] {
-        hprintln!("bench {} {} {}", phase, name, t * INSNS_PER_TICK);
+        hprintln!("bench {} {} {}", phase, name, insns);
+        hprintln!("stack {} {} {}", phase, name, stack);
     }
 }
 

@@ -141,3 +141,74 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
         );
     }
 }
+
+/// The SKR 2's flash after its 32 KiB SD-card bootloader (the top-level `memory.x`).
+const BOARD_FLASH: usize = 992 * 1024;
+/// The most initial values a firmware may store in flash and copy to RAM at boot (`.data`):
+/// the working memory (planner, offset spiral, application, 500 KiB) must start zeroed
+/// (`.bss`), or the image carries all of it. A `const fn new()` with one non-zero field (a
+/// pointer, an `Option` whose `None` is a niche value) moved all of it into `.data` twice.
+const MAX_DATA: usize = 64 * 1024;
+
+/// The sections a linker placed in an ELF32 file: (name, type, flags, size).
+fn elf_sections(elf: &[u8]) -> Vec<(String, u32, u32, usize)> {
+    let u16_at = |o: usize| u16::from_le_bytes([elf[o], elf[o + 1]]) as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(elf[o..o + 4].try_into().unwrap());
+    assert_eq!(&elf[..5], b"\x7fELF\x01", "not an ELF32 file");
+    let (shoff, shentsize, shnum, shstrndx) = (
+        u32_at(0x20) as usize,
+        u16_at(0x2E),
+        u16_at(0x30),
+        u16_at(0x32),
+    );
+    let header = |k: usize| shoff + k * shentsize;
+    let strings = u32_at(header(shstrndx) + 16) as usize;
+    (0..shnum)
+        .map(|k| {
+            let h = header(k);
+            let name_at = strings + u32_at(h) as usize;
+            let end = name_at + elf[name_at..].iter().position(|&b| b == 0).unwrap();
+            let name = String::from_utf8_lossy(&elf[name_at..end]).into_owned();
+            (name, u32_at(h + 4), u32_at(h + 8), u32_at(h + 20) as usize)
+        })
+        .collect()
+}
+
+#[test]
+fn firmware_images_fit_the_boards_flash_and_keep_working_memory_out_of_it() {
+    if !qemu::available("firmware sizes") {
+        return;
+    }
+    const SHF_ALLOC: u32 = 2;
+    const SHT_NOBITS: u32 = 8;
+    for bin in [None, Some("link")] {
+        let elf = std::fs::read(qemu::firmware(bin)).unwrap();
+        let sections = elf_sections(&elf);
+        let size = |name: &str| sections.iter().find(|s| s.0 == name).map_or(0, |s| s.3);
+        // What goes into flash: every allocated section with contents (`.data`'s initial
+        // values included); `.bss` is only zeroed RAM.
+        let flash: usize = sections
+            .iter()
+            .filter(|s| s.2 & SHF_ALLOC != 0 && s.1 != SHT_NOBITS)
+            .map(|s| s.3)
+            .sum();
+        let name = bin.unwrap_or("hollowpath-qemu");
+        println!(
+            "{name}: flash {flash} (text {}, rodata {}, data {}), bss {}",
+            size(".text"),
+            size(".rodata"),
+            size(".data"),
+            size(".bss")
+        );
+        assert!(size(".text") > 0, "{name}: no .text in {sections:?}");
+        assert!(
+            size(".data") <= MAX_DATA,
+            "{name}: {} bytes of .data: a large static's initial value is not all zeros",
+            size(".data")
+        );
+        assert!(
+            flash <= BOARD_FLASH,
+            "{name}: a {flash}-byte image does not fit the SKR 2's {BOARD_FLASH} bytes of flash"
+        );
+    }
+}

@@ -58,6 +58,8 @@ pub mod session;
 pub mod shared;
 pub mod steps;
 
+use heapless::Vec;
+
 use crate::link::controller::Event;
 use crate::link::error::LinkError;
 use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry};
@@ -86,7 +88,10 @@ const SERVE_US: u64 = 500;
 pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
     planner: Planner,
     offset: OffsetSpiral,
-    slice: Option<Slice>,
+    /// The accepted slice, if any: a `Vec` of at most one rather than an `Option`, whose
+    /// `None` is a non-zero niche value (in `FeatureId`), which made the whole 500 KiB
+    /// `App::new()` a `.data` image in flash instead of zeroed `.bss`.
+    slice: Vec<Slice, 1>,
     planned: bool,
 }
 
@@ -96,7 +101,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         App {
             planner: Planner::new(),
             offset: OffsetSpiral::new(),
-            slice: None,
+            slice: Vec::new(),
             planned: false,
         }
     }
@@ -129,7 +134,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         match event {
             Event::SliceReady => {
                 self.planned = false;
-                self.slice = None;
+                self.slice.clear();
                 // A refusal was already reported to the host by the controller.
                 let slice = link.lock(|s| {
                     s.report(Phase::Receiving, 0, 0, 0);
@@ -158,7 +163,11 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                         // one-layer job never needs it).
                         let _spiral_ready = self.offset.prepare(&slice).is_ok();
                     }
-                    self.slice = Some(slice);
+                    // Empty since the slice arrived (cleared above), so the push cannot
+                    // fail; were it full, the new slice replaces the old.
+                    if let Err(slice) = self.slice.push(slice) {
+                        self.slice[0] = slice;
+                    }
                 }
                 link.lock(|s| s.report(Phase::Idle, 0, 0, 0));
             }
@@ -181,7 +190,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         S: Steps,
     {
         let cfg = link.lock(|s| s.ctrl.printer().cloned());
-        let (Some(slice), true, Some(cfg)) = (&self.slice, self.planned, cfg) else {
+        let (Some(slice), true, Some(cfg)) = (self.slice.first(), self.planned, cfg) else {
             link.lock(|s| {
                 s.send(CtrlMsg::Error(RemoteError::Link(
                     LinkError::UnexpectedMessage,

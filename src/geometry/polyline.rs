@@ -34,21 +34,33 @@ pub fn point_at(pts: &[Point], s: f32) -> Point {
 
 /// Projection of `p`: (arc length of the closest point, the point, its distance).
 pub fn project(pts: &[Point], p: Point) -> (f32, Point, f32) {
-    let mut best = (0.0, pts[0], f32::INFINITY);
-    let mut acc = 0.0;
-    for w in pts.windows(2) {
-        let (c, t) = closest_on_segment(w[0], w[1], p);
+    project_points(pts.iter().copied(), p).0
+}
+
+/// [`project`] of the polyline whose points `pts` yields (at least one), without a slice of
+/// them, and the polyline's [`length`]: the same arithmetic in the same order, so the same
+/// bits.
+pub fn project_points(mut pts: impl Iterator<Item = Point>, p: Point) -> ((f32, Point, f32), f32) {
+    let Some(first) = pts.next() else {
+        return ((0.0, p, f32::INFINITY), 0.0);
+    };
+    let mut best = (0.0, first, f32::INFINITY);
+    let (mut acc, mut prev, mut single) = (0.0, first, true);
+    for q in pts {
+        let (c, t) = closest_on_segment(prev, q, p);
         let d = c.dist(p);
-        let l = w[0].dist(w[1]);
+        let l = prev.dist(q);
         if d < best.2 {
             best = (acc + t * l, c, d);
         }
         acc += l;
+        prev = q;
+        single = false;
     }
-    if pts.len() == 1 {
-        best.2 = pts[0].dist(p);
+    if single {
+        best.2 = first.dist(p);
     }
-    best
+    (best, acc)
 }
 
 /// Unit tangent at arc length `s`.

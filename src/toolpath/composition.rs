@@ -97,10 +97,9 @@ impl<'a> BlendedField<'a> {
             {
                 continue;
             }
-            let pts = self.plan.points(m);
-            let (s, _, d) = polyline::project(&pts, p);
+            let ((s, _, d), length) = polyline::project_points(self.plan.points_iter(m), p);
             if best.is_none_or(|b| d < b.0) {
-                best = Some((d, k, s / polyline::length(&pts).max(1e-9)));
+                best = Some((d, k, s / length.max(1e-9)));
             }
         }
         let (_, k, t) = best?;

@@ -178,25 +178,52 @@ fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
             continue;
         }
         let pts = f.points();
-        for (i, &a) in pts.iter().enumerate() {
-            let b = pts[(i + 1) % pts.len()];
-            // Only a segment that reaches the strip `off` either side of the ray, ahead of
-            // `p` and nearer than the best so far, can be nearer (a segment lies between
-            // its ends): most are ruled out by four products.
-            let (da, db) = (a - p, b - p);
-            let (ha, hb) = (n.cross(da), n.cross(db));
-            let (ga, gb) = (n.dot(da), n.dot(db));
-            if (ha > off && hb > off)
-                || (ha < -off && hb < -off)
-                || (ga < -off && gb < -off)
-                || (ga > best + off && gb > best + off)
-            {
+        for (run_box, edges) in f.edge_runs() {
+            // A run whose box lies wholly on one side of the strip (all four corners beyond
+            // it by more than rounding) holds no edge the test below would keep.
+            if box_clear_of_strip(p, n, run_box, off, best) {
                 continue;
             }
-            best = best.min(within(p, n, a, b, off));
+            for i in edges {
+                let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+                // Only a segment that reaches the strip `off` either side of the ray, ahead
+                // of `p` and nearer than the best so far, can be nearer (a segment lies
+                // between its ends): most are ruled out by four products.
+                let (da, db) = (a - p, b - p);
+                let (ha, hb) = (n.cross(da), n.cross(db));
+                let (ga, gb) = (n.dot(da), n.dot(db));
+                if (ha > off && hb > off)
+                    || (ha < -off && hb < -off)
+                    || (ga < -off && gb < -off)
+                    || (ga > best + off && gb > best + off)
+                {
+                    continue;
+                }
+                best = best.min(within(p, n, a, b, off));
+            }
         }
     }
     best
+}
+
+/// Whether box `(lo, hi)` lies wholly beyond one side of the strip of [`features_within`]'s
+/// ray from `p` along `n` (more than `off` to either side, more than `off` behind `p`, or
+/// more than `best + off` ahead), by more than rounding: then so does every segment in it.
+fn box_clear_of_strip(p: Point, n: Point, (lo, hi): (Point, Point), off: f32, best: f32) -> bool {
+    let corners = [lo, Point::new(hi.x, lo.y), hi, Point::new(lo.x, hi.y)];
+    let size = |q: Point| q.x.abs().max(q.y.abs());
+    let slack = 1e-5 * (1.0 + size(p) + size(lo).max(size(hi)));
+    let (mut h, mut g) = (
+        (f32::INFINITY, f32::NEG_INFINITY),
+        (f32::INFINITY, f32::NEG_INFINITY),
+    );
+    for c in corners {
+        let d = c - p;
+        let (hc, gc) = (n.cross(d), n.dot(d));
+        h = (h.0.min(hc), h.1.max(hc));
+        g = (g.0.min(gc), g.1.max(gc));
+    }
+    h.0 > off + slack || h.1 < -off - slack || g.1 < -off - slack || g.0 > best + off + slack
 }
 
 /// How far the ground across the MCL at `p` reaches along the unit normal `n` before it is
@@ -243,8 +270,13 @@ fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, o
         return;
     }
     {
-        let pts = plan.points(&plan.mcls[m as usize]);
-        for seg in pts.windows(2) {
+        let mut pts = plan.points_iter(&plan.mcls[m as usize]);
+        let Some(mut prev) = pts.next() else {
+            return;
+        };
+        for q in pts {
+            let seg = [prev, q];
+            prev = q;
             // The balls still in question lie ahead of `p` within `2 best` along `n` and
             // within `best` across it: a segment wholly outside that box cannot touch them.
             let (da, db) = (seg[0] - p, seg[1] - p);

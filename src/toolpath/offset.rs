@@ -175,8 +175,10 @@ pub struct OffsetSpiral {
     sites: Vec<Site, MAX_SITES>,
     stack: Vec<Frame, MAX_LOOPS>,
     queue: Vec<u16, MAX_LOOPS>,
-    /// The bridge gaps [`find_site`](Self::find_site) tries: a tail of [`BRIDGE_GAPS`].
-    gaps: &'static [f32],
+    /// The bridge gaps [`find_site`](Self::find_site) tries: [`BRIDGE_GAPS`] from this index
+    /// on. An index, not a slice: a pointer would make the initial value non-zero, and the
+    /// firmware's static (200 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
+    gaps_from: u8,
     /// The slice the loops and joins above were prepared for (its [`Prepared`] key) and
     /// the figures of that preparation: [`build`](Self::build) on the same slice again
     /// only walks them.
@@ -471,9 +473,14 @@ impl OffsetSpiral {
             sites: Vec::new(),
             stack: Vec::new(),
             queue: Vec::new(),
-            gaps: &BRIDGE_GAPS,
+            gaps_from: 0,
             prepared: None,
         }
+    }
+
+    /// The bridge gaps [`find_site`](Self::find_site) tries now.
+    fn gaps(&self) -> &'static [f32] {
+        &BRIDGE_GAPS[(self.gaps_from as usize).min(BRIDGE_GAPS.len())..]
     }
 
     /// Writes the offset-spiral layer of `slice` into `sink`, with the composition of
@@ -865,7 +872,7 @@ impl OffsetSpiral {
         let lenb = self.loops[b].length;
         let steps = libm::floorf(len / (0.25 * w)) as usize;
         for (g, k) in self
-            .gaps
+            .gaps()
             .iter()
             .flat_map(|&g| (0..steps).map(move |k| (g, k)))
         {
@@ -931,14 +938,14 @@ impl OffsetSpiral {
         // loop no room for its join (another extrusion start), the joins are made again with
         // half-road gaps only, and the way with fewer roads is kept.
         let before = *stats;
-        self.gaps = &BRIDGE_GAPS;
+        self.gaps_from = 0;
         let roads = self.join_with(slice, stats)?;
         if roads > 1 {
             *stats = before;
-            self.gaps = &BRIDGE_GAPS[1..];
+            self.gaps_from = 1;
             if self.join_with(slice, stats)? >= roads {
                 *stats = before;
-                self.gaps = &BRIDGE_GAPS;
+                self.gaps_from = 0;
                 self.join_with(slice, stats)?;
             }
         }
