@@ -4,8 +4,10 @@
 //! beyond, Ozbolat & Koc, *A continuous multi-material toolpath planning for tissue scaffolds
 //! with hollowed features* (2011). It has no allocator: every buffer is fixed-capacity, sized
 //! in [`config`], and a full buffer is an [`Error::Capacity`] naming the [`Limit`]. Nothing here
-//! reads a clock, a global or a peripheral, and all math goes through `libm`, so the host and
-//! the MCU compute bit-identical plans ([`Plan::digest`]).
+//! reads a clock, a global or a peripheral, and all math goes through `libm` (square roots
+//! through `hollowpath_fpu::sqrtf`: the FPU's correctly rounded instruction on the Cortex-M4F,
+//! libm's elsewhere, the same bits), so the host and the MCU compute bit-identical plans
+//! ([`Plan::digest`]).
 //!
 //! ## The data's journey
 //!
