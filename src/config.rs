@@ -37,6 +37,7 @@
 //! | field grid node (cell) | `Planner` (label, `u`) | 5 (80 KiB [320 KiB]) |
 //! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
 //! | offset-spiral grid node | `OffsetSpiral` (distance, mark) | 5 (80 KiB [320 KiB]) |
+//! | offset-spiral contour point | `OffsetSpiral` (point, arc length, a 16th of a run's box) | 13 (104 KiB [832 KiB]) |
 //! | MCL half | `Planner` | 240 (150 KiB [3.75 MiB]) |
 //!
 //! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices,

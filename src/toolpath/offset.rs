@@ -25,6 +25,8 @@
 //! curve.
 
 use super::despike::{finish, Despike};
+use core::ops::Range;
+
 use heapless::Vec;
 
 use crate::config::{CONTOUR_POINTS, GRID_NODES, MAX_LOOPS, MAX_SITES};
@@ -137,6 +139,14 @@ const NONE: u16 = u16::MAX;
 // A loop's start and length in `points` are `u16`.
 const _: () = assert!(CONTOUR_POINTS <= u16::MAX as usize);
 
+/// Points of a loop whose segments share one box of [`OffsetSpiral`]'s `runs`.
+const RUN: usize = 16;
+/// Runs of all the loops' points.
+const RUNS: usize = CONTOUR_POINTS.div_ceil(RUN);
+/// How far (relative to the coordinates' size) rounding may move a distance measured to a
+/// segment or to a box around it: an `f32` rounds within 6e-8 of a value, a few roundings deep.
+const BOX_SLACK: f32 = 1e-5;
+
 /// The offset spiral's working memory (about 200 KiB: the distance grid and the loops), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
 ///
@@ -171,6 +181,10 @@ pub struct OffsetSpiral {
     marks: Vec<u8, GRID_NODES>,
     points: Vec<Point, CONTOUR_POINTS>,
     arc: Vec<f32, CONTOUR_POINTS>,
+    /// The box around the segments starting at points `RUN r .. RUN (r + 1)` of `points`
+    /// (each segment's end included; a run two loops share holds both loops' segments): a
+    /// search along a loop skips the runs whose box is too far.
+    runs: Vec<(Point, Point), RUNS>,
     loops: Vec<Loop, MAX_LOOPS>,
     sites: Vec<Site, MAX_SITES>,
     stack: Vec<Frame, MAX_LOOPS>,
@@ -469,6 +483,7 @@ impl OffsetSpiral {
             marks: Vec::new(),
             points: Vec::new(),
             arc: Vec::new(),
+            runs: Vec::new(),
             loops: Vec::new(),
             sites: Vec::new(),
             stack: Vec::new(),
@@ -543,6 +558,7 @@ impl OffsetSpiral {
         let top = self.d.iter().fold(0.0f32, |a, &b| a.max(b));
         self.points.clear();
         self.arc.clear();
+        self.runs.clear();
         self.loops.clear();
         let mut k = 0u16;
         loop {
@@ -772,7 +788,8 @@ impl OffsetSpiral {
                 visited: false,
                 optional: length < OPTIONAL_LOOP_ROADS * w,
             })
-            .map_err(|_| capacity(Limit::ContourLoops))
+            .map_err(|_| capacity(Limit::ContourLoops))?;
+        self.add_runs(start, len)
     }
 
     fn pts(&self, l: usize) -> &[Point] {
@@ -797,22 +814,81 @@ impl OffsetSpiral {
         a.lerp(b, t.clamp(0.0, 1.0))
     }
 
-    /// The arc length of the point of loop `l` nearest `p`, and the distance.
+    /// Adds the segments of loop `start .. start + n` of `points` to the boxes of their runs.
+    fn add_runs(&mut self, start: usize, n: usize) -> Result<(), Error> {
+        const EMPTY: (Point, Point) = (
+            Point::new(f32::INFINITY, f32::INFINITY),
+            Point::new(f32::NEG_INFINITY, f32::NEG_INFINITY),
+        );
+        for k in 0..n {
+            let r = (start + k) / RUN;
+            while self.runs.len() <= r {
+                self.runs
+                    .push(EMPTY)
+                    .map_err(|_| capacity(Limit::ContourPoints))?;
+            }
+            let b = &mut self.runs[r];
+            for q in [self.points[start + k], self.points[start + (k + 1) % n]] {
+                b.0 = Point::new(b.0.x.min(q.x), b.0.y.min(q.y));
+                b.1 = Point::new(b.1.x.max(q.x), b.1.y.max(q.y));
+            }
+        }
+        Ok(())
+    }
+
+    /// The runs of loop `l`'s segments: (the run's box, the range of segment indices of the
+    /// loop in it), in the loop's order.
+    fn loop_runs(&self, l: usize) -> impl Iterator<Item = ((Point, Point), Range<usize>)> + '_ {
+        let (start, n) = (self.loops[l].start as usize, self.loops[l].len as usize);
+        (start / RUN..(start + n).div_ceil(RUN)).map(move |r| {
+            let (a, b) = ((r * RUN).max(start), ((r + 1) * RUN).min(start + n));
+            (self.runs[r], a - start..b - start)
+        })
+    }
+
+    /// How far beyond a run's box a segment in it may be measured, rounding considered.
+    fn slack(p: Point, (lo, hi): (Point, Point)) -> f32 {
+        let size = |q: Point| q.x.abs().max(q.y.abs());
+        BOX_SLACK * (1.0 + size(p) + size(lo).max(size(hi)))
+    }
+
+    /// The arc length of the point of loop `l` nearest `p`, and the distance: of equal
+    /// distances, the first along the loop. The run of segments whose box is nearest is
+    /// measured first, then the runs whose box is no farther than the best so far.
     fn project(&self, l: usize, p: Point) -> (f32, f32) {
         let (pts, arc) = (self.pts(l), self.arcs(l));
         let len = self.loops[l].length;
         let n = pts.len();
-        let mut best = (0.0, f32::INFINITY);
-        for k in 0..n {
-            let (a, b) = (pts[k], pts[(k + 1) % n]);
-            let (q, t) = crate::geometry::polyline::closest_on_segment(a, b, p);
-            let d = q.dist(p);
-            if d < best.1 {
-                let sb = if k + 1 < n { arc[k + 1] } else { len };
-                best = (arc[k] + t * (sb - arc[k]), d);
+        // (arc length, distance, segment)
+        let visit = |ks: Range<usize>, best: &mut (f32, f32, usize)| {
+            for k in ks {
+                let (a, b) = (pts[k], pts[(k + 1) % n]);
+                let (q, t) = crate::geometry::polyline::closest_on_segment(a, b, p);
+                let d = q.dist(p);
+                if d < best.1 || (d == best.1 && k < best.2) {
+                    let sb = if k + 1 < n { arc[k + 1] } else { len };
+                    *best = (arc[k] + t * (sb - arc[k]), d, k);
+                }
+            }
+        };
+        let first = self
+            .loop_runs(l)
+            .map(|(b, ks)| (polygon::bbox_distance2(b, p), ks))
+            .fold(None, |m: Option<(f32, Range<usize>)>, r| match m {
+                Some(m) if m.0 <= r.0 => Some(m),
+                _ => Some(r),
+            });
+        let mut best = (0.0, f32::INFINITY, usize::MAX);
+        let Some((_, first)) = first else {
+            return (0.0, f32::INFINITY);
+        };
+        visit(first.clone(), &mut best);
+        for (b, ks) in self.loop_runs(l) {
+            if ks != first && polygon::bbox_distance(b, p) <= best.1 + Self::slack(p, b) {
+                visit(ks, &mut best);
             }
         }
-        best
+        (best.0, best.1)
     }
 
     /// The loop one level below `l` that the point `p` of `l` faces a road width away, with
@@ -1104,12 +1180,15 @@ impl OffsetSpiral {
                 return false;
             }
             let pts = self.pts(l);
-            (0..pts.len()).any(|k| {
-                let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
-                crate::geometry::polyline::closest_on_segment(a, b, q)
-                    .0
-                    .dist(q)
-                    <= tol
+            self.loop_runs(l).any(|(b, ks)| {
+                polygon::bbox_distance(b, q) <= tol + Self::slack(q, b)
+                    && ks.into_iter().any(|k| {
+                        let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                        crate::geometry::polyline::closest_on_segment(a, b, q)
+                            .0
+                            .dist(q)
+                            <= tol
+                    })
             })
         })
     }
