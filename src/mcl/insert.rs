@@ -263,11 +263,23 @@ fn trace(
     // Hole `i`'s nearest point to `p`: measured once for the step that ends at `p` and the
     // one that starts there.
     let mut near_p = slice.holes()[i].nearest(p);
+    // A lower bound of the wall's clearance at `p`: the distance to the wall changes by no
+    // more than a step's length over a step, so the wall is measured again only where the
+    // bound, less rounding, no longer keeps it farther than half a road. Each step takes a
+    // millionth off the bound besides, more than the subtraction can round, so a bound
+    // carried over many steps stays below the clearance.
+    let mut wall_p = slice.wall_clearance(p);
     while out.len() < TRACE_POINTS - 1 {
         let d1 = direction_at(p, near_p);
         let d2 = direction(p + d1 * (0.5 * step));
         let q = p + d2 * step;
-        if slice.wall_clearance(q) < half {
+        let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
+        let wall_q = if bound > half + BOX_SLACK * (1.0 + q.x.abs().max(q.y.abs())) {
+            bound
+        } else {
+            slice.wall_clearance(q)
+        };
+        if wall_q < half {
             let e = bisect(p, q, |x| slice.wall_clearance(x) - half);
             out.push(e).ok()?;
             return Some(HalfEnd::Wall);
@@ -286,6 +298,7 @@ fn trace(
         out.push(q).ok()?;
         p = q;
         near_p = near_q;
+        wall_p = wall_q;
     }
     None
 }
