@@ -35,9 +35,6 @@ pub struct Feature {
 
 /// Edges per chunk of a feature's distance index.
 const CHUNK: usize = 16;
-/// How far (relative to the coordinates' size) a rounded edge crossing may lie outside its
-/// edge's x range: a few units in the last place of an `f32`, with room to spare.
-const X_MARGIN: f32 = 1e-5;
 // `n <= MAX_VERTICES` points make at most `MAX_VERTICES / CHUNK` chunks.
 const _: () = assert!(MAX_VERTICES % CHUNK == 0);
 
@@ -251,7 +248,7 @@ impl Feature {
         // (point, squared distance, edge, chunk)
         let visit = |c: usize, best: &mut (Point, f32, usize, usize)| {
             let ahead = best.1 == f32::INFINITY || (bounds[c], c) < (bounds[best.3], best.3);
-            for k in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            for k in self.chunk_edges(c) {
                 let (q, _) =
                     polyline::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
                 let d2 = (q - p).norm2();
@@ -281,17 +278,15 @@ impl Feature {
     /// with the same answer, on the edges of the chunks whose box straddles `p`'s horizontal
     /// line right of `p` only. An edge flips the count only if one end is above `p.y` and the
     /// other is not, and where it crosses that line lies within its ends' x range (to within
-    /// rounding, which `X_MARGIN` covers), so every chunk skipped would have flipped nothing.
+    /// [`polygon::rounding_slack`]), so every chunk skipped would have flipped nothing.
     pub fn contains(&self, p: Point) -> bool {
         let n = self.points.len();
         let mut inside = false;
-        for (c, b) in self.chunks.iter().enumerate() {
-            // Relative to the box's size: the crossing's x is rounded once or twice.
-            let margin = X_MARGIN * (1.0 + libm::fabsf(b.0.x) + libm::fabsf(b.1.x));
-            if b.1.y <= p.y || b.0.y > p.y || b.1.x + margin < p.x {
+        for (b, edges) in self.edge_runs() {
+            if b.1.y <= p.y || b.0.y > p.y || b.1.x + polygon::rounding_slack(p, b) < p.x {
                 continue;
             }
-            for k in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            for k in edges {
                 let (a, b) = (self.points[(k + 1) % n], self.points[k]);
                 if (a.y > p.y) != (b.y > p.y) {
                     let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
@@ -310,11 +305,15 @@ impl Feature {
     pub fn edge_runs(
         &self,
     ) -> impl Iterator<Item = ((Point, Point), core::ops::Range<usize>)> + '_ {
-        let n = self.points.len();
         self.chunks
             .iter()
             .enumerate()
-            .map(move |(c, b)| (*b, c * CHUNK..((c + 1) * CHUNK).min(n)))
+            .map(move |(c, b)| (*b, self.chunk_edges(c)))
+    }
+
+    /// The edges of chunk `c`.
+    fn chunk_edges(&self, c: usize) -> core::ops::Range<usize> {
+        c * CHUNK..((c + 1) * CHUNK).min(self.points.len())
     }
 
     /// The edges (start, end) of every chunk whose box meets box `b`, chunk by chunk in the
@@ -325,13 +324,9 @@ impl Feature {
         b: (Point, Point),
     ) -> impl Iterator<Item = impl Iterator<Item = (Point, Point)> + '_> + '_ {
         let (pts, n) = (&self.points, self.points.len());
-        self.chunks
-            .iter()
-            .enumerate()
-            .filter(move |(_, cb)| polygon::boxes_meet(**cb, b))
-            .map(move |(c, _)| {
-                (c * CHUNK..((c + 1) * CHUNK).min(n)).map(move |k| (pts[k], pts[(k + 1) % n]))
-            })
+        self.edge_runs()
+            .filter(move |(cb, _)| polyline::boxes_overlap(*cb, b, 0.0))
+            .map(move |(_, edges)| edges.map(move |k| (pts[k], pts[(k + 1) % n])))
     }
 
     /// Distance from `p` to the boundary, negative inside the polygon.
@@ -791,16 +786,11 @@ impl Slice {
     /// The distance from `p` to the nearest feature (a hole or the wall), positive in the
     /// material.
     pub fn clearance(&self, p: Point) -> f32 {
-        // The nearest hole only (not the second, as `nearest_holes` finds): a hole whose box
-        // is no nearer than the nearest so far is skipped.
-        let mut best = self.wall_clearance(p);
-        for h in self.holes.iter() {
-            if polygon::bbox_distance(h.bbox, p) >= best {
-                continue;
-            }
-            best = best.min(h.signed_distance(p));
-        }
-        best
+        // The nearest hole only, where it is nearer than the wall (no hole index is skipped:
+        // `holes.len()` is none of them).
+        let wall = self.wall_clearance(p);
+        self.nearest_other_hole(p, self.holes.len(), wall)
+            .map_or(wall, |(_, d)| d)
     }
 
     /// Whether a road `width` wide centred at `p` stays in the material: inside the wall and
@@ -826,7 +816,7 @@ impl Slice {
             .iter()
             .chain(core::iter::once(&self.wall))
             .filter(move |f| {
-                polygon::boxes_meet(f.bbox, (lo, hi))
+                polyline::boxes_overlap(f.bbox, (lo, hi), 0.0)
                     && f.chunks_near((lo, hi)).any(|edges| {
                         edges
                             .into_iter()
@@ -868,7 +858,7 @@ impl Slice {
             }
         };
         for h in self.holes.iter() {
-            if polygon::boxes_meet(h.bbox, (lo, hi)) {
+            if polyline::boxes_overlap(h.bbox, (lo, hi), 0.0) {
                 consider(h);
             }
         }
@@ -912,7 +902,8 @@ impl Slice {
     }
 
     /// Whether every segment of the polyline `pts` is printable
-    /// ([`segment_is_printable`](Self::segment_is_printable)), each point measured once.
+    /// ([`segment_is_printable`](Self::segment_is_printable)), each point measured once. A
+    /// polyline of one point has no segment, and passes.
     pub fn polyline_is_printable(&self, pts: &[Point], tol: f32) -> bool {
         let half = 0.5 * self.settings.road_width;
         (pts.len() < 2 || pts.iter().all(|&p| self.is_printable(p, tol)))
@@ -925,10 +916,6 @@ impl Slice {
     /// Whether the whole segment `ab` lies in the printable region (within `tol`): both ends
     /// printable, no feature boundary crossed, no feature nearer than half a road width.
     pub fn segment_is_printable(&self, a: Point, b: Point, tol: f32) -> bool {
-        let half = 0.5 * self.settings.road_width;
-        self.is_printable(a, tol)
-            && self.is_printable(b, tol)
-            && !self.segment_crosses_feature(a, b)
-            && self.segment_dip(a, b, half - tol).is_none()
+        self.polyline_is_printable(&[a, b], tol)
     }
 }

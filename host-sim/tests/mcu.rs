@@ -24,6 +24,14 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
     let (out, err) = (q.stdout(), q.stderr());
     println!("{out}");
     assert!(status.success(), "firmware failed:\n{out}\n{err}");
+    // The FPU's square root, which the core computes with on the MCU, equals libm's, which
+    // it computes with on the host, bit for bit (the firmware fails on the first input that
+    // differs; this line says the check ran).
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("sqrt checked ") && l.ends_with("the FPU's equal libm's")),
+        "no square-root check in:\n{out}"
+    );
     // Every reference slice: the plan and both layers, streamed on the MCU, match the host's
     // vertex for vertex, and each phase's instruction count is reported.
     for (name, text) in host_sim::REFERENCE_SLICES {

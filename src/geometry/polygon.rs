@@ -166,7 +166,12 @@ pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
     dx * dx + dy * dy
 }
 
-/// Whether two boxes (min, max) share a point.
-pub fn boxes_meet(a: (Point, Point), b: (Point, Point)) -> bool {
-    a.0.x <= b.1.x && b.0.x <= a.1.x && a.0.y <= b.1.y && b.0.y <= a.1.y
+/// How far rounding may move a distance measured from `p` to a segment in box `(lo, hi)`, or
+/// to the box itself, in `f32`: 1e-5 of the largest coordinate involved (plus 1e-5 mm). Each
+/// rounding moves a value by at most 6e-8 of it and such a distance is a few roundings deep,
+/// so this is generous. A search that skips a box only when it is farther than its best by
+/// this much skips nothing that could have won or tied: it answers as the search over all.
+pub fn rounding_slack(p: Point, (lo, hi): (Point, Point)) -> f32 {
+    let size = |q: Point| q.x.abs().max(q.y.abs());
+    1e-5 * (1.0 + size(p) + size(lo).max(size(hi)))
 }

@@ -127,18 +127,21 @@ pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
     // Likewise only the run of `q`'s segments from the first to the last that meets `p`'s box
     // can meet a segment of `p`.
     let pb = bbox(p);
-    let meets_p = |b: &[Point]| super::polygon::boxes_meet(bbox(b), pb);
-    let Some(first) = q.windows(2).position(meets_p) else {
+    let meets_p = |b: &[Point]| boxes_overlap(bbox(b), pb, 0.0);
+    let (Some(first), Some(last)) = (
+        q.windows(2).position(meets_p),
+        q.windows(2).rposition(meets_p),
+    ) else {
         return false;
     };
-    let last = q.len() - 1 - q.windows(2).rev().position(meets_p).unwrap_or(0);
-    let q = &q[first..last.max(first + 1) + 1];
+    // Segments `first ..= last` are points `first ..= last + 1`.
+    let q = &q[first..last + 2];
     for a in p.windows(2) {
         let (alo, ahi) = (
             Point::new(a[0].x.min(a[1].x), a[0].y.min(a[1].y)),
             Point::new(a[0].x.max(a[1].x), a[0].y.max(a[1].y)),
         );
-        if !super::polygon::boxes_meet((alo, ahi), qb) {
+        if !boxes_overlap((alo, ahi), qb, 0.0) {
             continue;
         }
         for b in q.windows(2) {

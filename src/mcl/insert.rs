@@ -250,8 +250,8 @@ fn trace(
     // holes whose box is not clearly farther than `d` (by more than rounding could move
     // either: a hole's distance is at least its box's).
     let other_within = |x: Point, d: f32| {
-        let far = d + BOX_SLACK * (1.0 + x.x.abs().max(x.y.abs()));
         slice.holes().iter().enumerate().any(|(c, f)| {
+            let far = d + polygon::rounding_slack(x, f.bbox());
             c != i
                 && (d < 0.0 || polygon::bbox_distance2(f.bbox(), x) <= far * far)
                 && f.signed_distance(x) <= d
@@ -274,7 +274,7 @@ fn trace(
         let d2 = direction(p + d1 * (0.5 * step));
         let q = p + d2 * step;
         let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
-        let wall_q = if bound > half + BOX_SLACK * (1.0 + q.x.abs().max(q.y.abs())) {
+        let wall_q = if bound > half + polygon::rounding_slack(q, slice.wall().bbox()) {
             bound
         } else {
             slice.wall_clearance(q)
@@ -302,7 +302,3 @@ fn trace(
     }
     None
 }
-
-/// How far (relative to the coordinates' size) rounding may move a distance measured to a
-/// polygon or to its box: an `f32` rounds within 6e-8 of a value, a few roundings deep.
-const BOX_SLACK: f32 = 1e-5;

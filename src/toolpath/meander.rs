@@ -2,7 +2,7 @@
 //! between its neighbouring MCLs, the road's width and place in it, and the meander that fills
 //! a band wider than the widest road.
 
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polygon, polyline, Point};
 use crate::toolpath::composition::along;
 use crate::toolpath::zigzag::EDGE_MARGIN;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -157,24 +157,12 @@ fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
     best
 }
 
-/// The squared distance from `p` to the box `(lo, hi)` (0 inside it).
-fn box_dist2(p: Point, (lo, hi): (Point, Point)) -> f32 {
-    let dx = (lo.x - p.x).max(p.x - hi.x).max(0.0);
-    let dy = (lo.y - p.y).max(p.y - hi.y).max(0.0);
-    dx * dx + dy * dy
-}
-
-/// The distance from `p` to the box `(lo, hi)` (0 inside it).
-fn box_dist(p: Point, bbox: (Point, Point)) -> f32 {
-    hollowpath_fpu::sqrtf(box_dist2(p, bbox))
-}
-
 /// The features' edges a ray from `p` may meet within `limit`, each with the least `t` at
 /// which the ray comes within `off` of it ([`within`]): the least over all features.
 fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
     let mut best = f32::INFINITY;
     for f in slice.holes().iter().chain(core::iter::once(slice.wall())) {
-        if box_dist(p, f.bbox()) >= best + off {
+        if polygon::bbox_distance(f.bbox(), p) >= best + off {
             continue;
         }
         let pts = f.points();
@@ -211,8 +199,7 @@ fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
 /// more than `best + off` ahead), by more than rounding: then so does every segment in it.
 fn box_clear_of_strip(p: Point, n: Point, (lo, hi): (Point, Point), off: f32, best: f32) -> bool {
     let corners = [lo, Point::new(hi.x, lo.y), hi, Point::new(lo.x, hi.y)];
-    let size = |q: Point| q.x.abs().max(q.y.abs());
-    let slack = 1e-5 * (1.0 + size(p) + size(lo).max(size(hi)));
+    let slack = polygon::rounding_slack(p, (lo, hi));
     let (mut h, mut g) = (
         (f32::INFINITY, f32::NEG_INFINITY),
         (f32::INFINITY, f32::NEG_INFINITY),
@@ -251,7 +238,7 @@ fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
     for step in 0..runs {
         let c = outward(at, step, runs);
         // A ball of radius t from p reaches no point farther than 2 t from p.
-        if box_dist2(p, fan.chunks[c]) >= 4.0 * best * best {
+        if polygon::bbox_distance2(fan.chunks[c], p) >= 4.0 * best * best {
             continue;
         }
         for i in c * CHUNK..((c + 1) * CHUNK).min(count) {
@@ -266,7 +253,7 @@ fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
 fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, out: &mut f32) {
     let mut best = *out;
     let (m, bbox) = (fan.laid[i], fan.boxes[i]);
-    if box_dist2(p, bbox) >= 4.0 * best * best {
+    if polygon::bbox_distance2(bbox, p) >= 4.0 * best * best {
         return;
     }
     {

@@ -143,9 +143,6 @@ const _: () = assert!(CONTOUR_POINTS <= u16::MAX as usize);
 const RUN: usize = 16;
 /// Runs of all the loops' points.
 const RUNS: usize = CONTOUR_POINTS.div_ceil(RUN);
-/// How far (relative to the coordinates' size) rounding may move a distance measured to a
-/// segment or to a box around it: an `f32` rounds within 6e-8 of a value, a few roundings deep.
-const BOX_SLACK: f32 = 1e-5;
 
 /// The offset spiral's working memory (about 200 KiB: the distance grid and the loops), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
@@ -846,12 +843,6 @@ impl OffsetSpiral {
         })
     }
 
-    /// How far beyond a run's box a segment in it may be measured, rounding considered.
-    fn slack(p: Point, (lo, hi): (Point, Point)) -> f32 {
-        let size = |q: Point| q.x.abs().max(q.y.abs());
-        BOX_SLACK * (1.0 + size(p) + size(lo).max(size(hi)))
-    }
-
     /// The arc length of the point of loop `l` nearest `p`, and the distance: of equal
     /// distances, the first along the loop. The run of segments whose box is nearest is
     /// measured first, then the runs whose box is no farther than the best so far.
@@ -871,20 +862,18 @@ impl OffsetSpiral {
                 }
             }
         };
-        let first = self
+        let nearest_run = self
             .loop_runs(l)
             .map(|(b, ks)| (polygon::bbox_distance2(b, p), ks))
-            .fold(None, |m: Option<(f32, Range<usize>)>, r| match m {
-                Some(m) if m.0 <= r.0 => Some(m),
-                _ => Some(r),
-            });
-        let mut best = (0.0, f32::INFINITY, usize::MAX);
-        let Some((_, first)) = first else {
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, first)) = nearest_run else {
             return (0.0, f32::INFINITY);
         };
+        let mut best = (0.0, f32::INFINITY, usize::MAX);
         visit(first.clone(), &mut best);
         for (b, ks) in self.loop_runs(l) {
-            if ks != first && polygon::bbox_distance(b, p) <= best.1 + Self::slack(p, b) {
+            if ks != first && polygon::bbox_distance(b, p) <= best.1 + polygon::rounding_slack(p, b)
+            {
                 visit(ks, &mut best);
             }
         }
@@ -1181,7 +1170,7 @@ impl OffsetSpiral {
             }
             let pts = self.pts(l);
             self.loop_runs(l).any(|(b, ks)| {
-                polygon::bbox_distance(b, q) <= tol + Self::slack(q, b)
+                polygon::bbox_distance(b, q) <= tol + polygon::rounding_slack(q, b)
                     && ks.into_iter().any(|k| {
                         let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
                         crate::geometry::polyline::closest_on_segment(a, b, q)
