@@ -8,20 +8,20 @@
 //! ## Two sets of capacities, one plan
 //!
 //! The default sizes are the MCU build's: the whole [`Planner`](crate::Planner) is about
-//! 290 KiB and is meant to live in a `static`; one layer's path buffer ([`PATH_VERTICES`])
-//! another 224 KiB. They hold 8 hollow features of up to 256 vertices in about 75 x 75 mm at
-//! 0.4 mm roads. That fits no printer board yet: the QEMU firmware links in 1 MiB of
-//! mps2-an386's RAM (its `build.rs` widens `firmware/memory.x`; the firmware needs about
-//! 650 KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has
-//! 192 KiB (128 KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet
-//! yet.
+//! 250 KiB and is meant to live in a `static`, the offset spiral's working memory 127 KiB, a
+//! [`Slice`](crate::Slice) 30 KiB; one layer's path buffer ([`PATH_VERTICES`]), where a
+//! firmware keeps one, another 224 KiB. They hold 8 hollow features of up to 256 vertices in
+//! about 75 x 75 mm at 0.4 mm roads. The QEMU firmware links in the 640 KiB of
+//! `firmware/memory.x` (its bench needs 462 KiB with its stack, the link firmware about 500
+//! KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB
+//! (128 KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
-//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 4.9 MiB, the
-//! offset spiral's working memory 1.4 MiB and a [`Slice`](crate::Slice) 2.3 MiB: keep them on the heap, and build and run them on a
-//! thread with a large stack (host-sim's `run_on_large_stack`), as the layers' working sets
-//! are on the stack too.
+//! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 3.6 MiB, the
+//! offset spiral's working memory 1.2 MiB and a [`Slice`](crate::Slice) 3.3 MiB: keep them on
+//! the heap, and build and run them on a thread with a large stack (host-sim's
+//! `run_on_large_stack`), as the layers' working sets are on the stack too.
 //!
 //! The capacities only decide whether a slice is accepted: everything that shapes a plan (the
 //! grid spacings, [`GRID_SPACING_NODES`], the per-polyline point budgets [`HALF_POINTS`] and
@@ -32,13 +32,12 @@
 //!
 //! | unit | where | bytes |
 //! |------|-------|-------|
-//! | hollow feature | `Slice` (vertices, chunk boxes) | 8 per vertex + 1 per vertex (2.3 KiB [36 KiB]) |
-//! | feature's keep-out curve | zigzag layer, on the stack | 12 per vertex (3 KiB [48 KiB]) |
-//! | field grid node (cell) | `Planner` (label, `u`) | 5 (80 KiB [320 KiB]) |
+//! | hollow feature | `Slice` (vertices, arc lengths, chunk boxes) | 13 per vertex (3.3 KiB [52 KiB]) |
+//! | feature's keep-out curve | a view of the feature | 40 |
+//! | field grid node | `Planner` (label, `u`; lent to the offset spiral's distances and marks once the MCLs are traced) | 5 (80 KiB [320 KiB]) |
 //! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
-//! | offset-spiral grid node | `OffsetSpiral` (distance, mark) | 5 (80 KiB [320 KiB]) |
 //! | offset-spiral contour point | `OffsetSpiral` (point, arc length, a 16th of a run's box) | 13 (104 KiB [832 KiB]) |
-//! | MCL half | `Planner` | 240 (150 KiB [3.75 MiB]) |
+//! | MCL half | `Planner` (40, and 8 a point in the pool of [`HALF_POOL_POINTS`], 16 a half) | 168 (105 KiB [2.6 MiB]) |
 //!
 //! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices,
 //! and the sizes of the working sets.
@@ -106,6 +105,9 @@ pub const MAX_HALVES: usize = if LARGE { 16_384 } else { 640 };
 /// simplified with the finest tolerance (from 0.5 % of a road, doubling) that fits it, so this
 /// shapes the plan.
 pub const HALF_POINTS: usize = 24;
+/// Points of all the MCL halves of one plan together (10 240; 262 144 with `large`): 16 a
+/// half on average (the reference slices' halves have 5-14).
+pub const HALF_POOL_POINTS: usize = 16 * MAX_HALVES;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.

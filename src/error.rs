@@ -131,6 +131,8 @@ pub enum Limit {
     ContourLoops,
     /// [`MAX_SITES`](crate::config::MAX_SITES)
     ContourSites,
+    /// [`HALF_POOL_POINTS`](crate::config::HALF_POOL_POINTS)
+    HalfPoolPoints,
 }
 
 impl Limit {
@@ -154,6 +156,7 @@ impl Limit {
             Limit::ContourPoints => CONTOUR_POINTS,
             Limit::ContourLoops => MAX_LOOPS,
             Limit::ContourSites => MAX_SITES,
+            Limit::HalfPoolPoints => HALF_POOL_POINTS,
         }
     }
 
@@ -183,6 +186,7 @@ impl Limit {
             Limit::ContourPoints => "points of the offset spiral's loops",
             Limit::ContourLoops => "loops of the offset spiral",
             Limit::ContourSites => "side-by-side pairs of the offset spiral's loops",
+            Limit::HalfPoolPoints => "points of all the MCL halves",
         }
     }
 }

@@ -41,11 +41,43 @@ struct BoundaryNode {
     one: u8,
 }
 
+/// The memory of one grid's nodes: a value and a byte a node ([`GRID_NODES`] of each, 80 KiB
+/// in the MCU build). The planner's [`Field`] keeps its `u` and labels in it; once a plan is
+/// made, the field lends it to the offset spiral for its distances and marks
+/// ([`Planner::plan_and_grid`](crate::Planner::plan_and_grid)), so that two grids are never
+/// alive at once.
+pub struct GridMemory {
+    pub(crate) values: Vec<f32, GRID_NODES>,
+    pub(crate) tags: Vec<u8, GRID_NODES>,
+}
+
+impl GridMemory {
+    /// Empty memory (no allocation: the buffers are inline).
+    pub const fn new() -> GridMemory {
+        GridMemory {
+            values: Vec::new(),
+            tags: Vec::new(),
+        }
+    }
+
+    /// Forgets every node.
+    pub(crate) fn clear(&mut self) {
+        self.values.clear();
+        self.tags.clear();
+    }
+}
+
+impl Default for GridMemory {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Labels and harmonic field over the slice.
 pub struct Field {
     grid: Grid,
-    labels: Vec<u8, GRID_NODES>,
-    u: Vec<f32, GRID_NODES>,
+    /// `u` in `values`, the labels in `tags`.
+    mem: GridMemory,
     boundary: Vec<BoundaryNode, BOUNDARY_NODES>,
     sweeps: u32,
     residual: f32,
@@ -67,8 +99,7 @@ impl Field {
                 nx: 0,
                 ny: 0,
             },
-            labels: Vec::new(),
-            u: Vec::new(),
+            mem: GridMemory::new(),
             boundary: Vec::new(),
             sweeps: 0,
             residual: 0.0,
@@ -81,8 +112,19 @@ impl Field {
     }
     /// Label of node `k`: a hole index for a free node, [`KEEP_OUT`]` | i`, or [`OUTSIDE`].
     pub fn label(&self, k: usize) -> u8 {
-        self.labels[k]
+        self.mem.tags[k]
     }
+    /// Empties the field and lends its node memory to another grid's user (the offset
+    /// spiral); the field is planned afresh by the next [`label_nodes`](Self::label_nodes).
+    pub fn lend(&mut self) -> &mut GridMemory {
+        self.grid = Grid::default();
+        self.boundary.clear();
+        self.sweeps = 0;
+        self.residual = 0.0;
+        self.mem.clear();
+        &mut self.mem
+    }
+
     /// Number of nodes next to a boundary.
     pub fn boundary_nodes(&self) -> usize {
         self.boundary.len()
@@ -97,8 +139,8 @@ impl Field {
     pub fn label_nodes(&mut self, slice: &Slice) -> Result<(), Error> {
         let w = slice.settings().road_width;
         let (lo, hi) = slice.wall().bbox();
-        self.labels.clear();
-        self.u.clear();
+        self.mem.tags.clear();
+        self.mem.values.clear();
         self.boundary.clear();
         // The spacing depends on the slice and the road only; the capacity only decides
         // whether the grid fits.
@@ -119,13 +161,17 @@ impl Field {
                     (i as u8, a / (a + b).max(1e-6))
                 }
             };
-            self.labels
+            self.mem
+                .tags
                 .push(label)
                 .map_err(|_| Limit::GridNodes.error())?;
-            self.u.push(u0).map_err(|_| Limit::GridNodes.error())?;
+            self.mem
+                .values
+                .push(u0)
+                .map_err(|_| Limit::GridNodes.error())?;
         }
         for k in 0..self.grid.len() {
-            let i = self.labels[k];
+            let i = self.mem.tags[k];
             if i >= KEEP_OUT {
                 continue;
             }
@@ -136,7 +182,7 @@ impl Field {
             let mut irregular = false;
             for (a, &(dx, dy)) in ARMS.iter().enumerate() {
                 let nb = self.neighbour(k, dx, dy);
-                let l = self.labels[nb];
+                let l = self.mem.tags[nb];
                 if l == i {
                     continue;
                 }
@@ -179,7 +225,7 @@ impl Field {
             residual = 0.0;
             let mut cursor = 0;
             for k in 0..n {
-                if self.labels[k] >= KEEP_OUT {
+                if self.mem.tags[k] >= KEEP_OUT {
                     continue;
                 }
                 let target =
@@ -188,11 +234,14 @@ impl Field {
                         cursor += 1;
                         self.weighted_average(k, &b)
                     } else {
-                        0.25 * (self.u[k + 1] + self.u[k - 1] + self.u[k + nx] + self.u[k - nx])
+                        0.25 * (self.mem.values[k + 1]
+                            + self.mem.values[k - 1]
+                            + self.mem.values[k + nx]
+                            + self.mem.values[k - nx])
                     };
-                let old = self.u[k];
+                let old = self.mem.values[k];
                 let new = old + FIELD_OMEGA * (target - old);
-                self.u[k] = new;
+                self.mem.values[k] = new;
                 residual = residual.max(libm::fabsf(new - old));
             }
             sweeps += 1;
@@ -210,7 +259,7 @@ impl Field {
                     b.theta[a] as f32 / 255.0,
                     if b.one & (1 << a) != 0 { 1.0 } else { 0.0 },
                 ),
-                _ => (1.0, self.u[self.neighbour(k, dx, dy)]),
+                _ => (1.0, self.mem.values[self.neighbour(k, dx, dy)]),
             };
         }
         out
@@ -261,7 +310,7 @@ impl Field {
         let mut g = Point::default();
         let mut wsum = 0.0;
         for (k, wk) in corners {
-            if self.labels[k] as usize == cell && wk > 0.0 {
+            if self.mem.tags[k] as usize == cell && wk > 0.0 {
                 g = g + self.node_gradient(k) * wk;
                 wsum += wk;
             }

@@ -7,7 +7,6 @@
 //! outline; where the feature is concave the point is pulled back to exactly half a road
 //! width.
 
-use crate::config::MAX_VERTICES;
 use crate::geometry::{polygon, Point};
 use crate::Feature;
 
@@ -20,13 +19,14 @@ pub enum Side {
     Inside,
 }
 
-/// A feature's keep-out curve.
+/// A feature's keep-out curve: a view of the feature (its arc lengths are the feature's,
+/// its vertex normals computed where they are used), a few bytes, so a layer may hold one per
+/// feature without 3 KiB of tables each (28 KiB of the zigzag's frame on a controller).
 pub struct KeepOut<'a> {
     feature: &'a Feature,
     side: Side,
-    normals: [Point; MAX_VERTICES],
-    /// Arc length of the polygon up to each vertex.
-    at_vertex: [f32; MAX_VERTICES],
+    /// Arc length of the polygon up to each vertex (the feature's).
+    at_vertex: &'a [f32],
     length: f32,
     half: f32,
 }
@@ -34,9 +34,20 @@ pub struct KeepOut<'a> {
 impl<'a> KeepOut<'a> {
     /// The curve `half` off `feature`, on `side`.
     pub fn new(feature: &'a Feature, half: f32, side: Side) -> KeepOut<'a> {
-        let pts = feature.points();
+        KeepOut {
+            feature,
+            side,
+            at_vertex: feature.arc_lengths(),
+            length: polygon::perimeter(feature.points()),
+            half,
+        }
+    }
+
+    /// The unit normal at vertex `k` towards the region: the mean of its two edges' normals.
+    fn vertex_normal(&self, k: usize) -> Point {
+        let pts = self.feature.points();
         let n = pts.len();
-        let sign = match side {
+        let sign = match self.side {
             Side::Outside => 1.0,
             Side::Inside => -1.0,
         };
@@ -45,22 +56,7 @@ impl<'a> KeepOut<'a> {
             let d = pts[(k + 1) % n] - pts[k];
             Point::new(d.y, -d.x).normalized() * sign
         };
-        let mut normals = [Point::default(); MAX_VERTICES];
-        let mut at_vertex = [0.0; MAX_VERTICES];
-        let mut acc = 0.0;
-        for k in 0..n {
-            normals[k] = (edge_normal((k + n - 1) % n) + edge_normal(k)).normalized();
-            at_vertex[k] = acc;
-            acc += pts[k].dist(pts[(k + 1) % n]);
-        }
-        KeepOut {
-            feature,
-            side,
-            normals,
-            at_vertex,
-            length: polygon::perimeter(pts),
-            half,
-        }
+        (edge_normal((k + n - 1) % n) + edge_normal(k)).normalized()
     }
 
     /// Length of the parameter domain (the feature's perimeter).
@@ -95,8 +91,9 @@ impl<'a> KeepOut<'a> {
         } else {
             0.0
         };
-        let nrm = self.normals[k]
-            .lerp(self.normals[(k + 1) % n], t)
+        let nrm = self
+            .vertex_normal(k)
+            .lerp(self.vertex_normal((k + 1) % n), t)
             .normalized();
         (a.lerp(b, t), nrm)
     }

@@ -70,14 +70,38 @@
 //!   a gap is naked and a silence retransmitted (go-back-N over a small window, Klipper's
 //!   scheme), so both ends deliver every message once and in order over a line that drops,
 //!   corrupts, repeats or reorders. Contours go up in integer micrometres as zigzag delta
-//!   varints, into a fixed-capacity slice assembler that builds the [`Slice`] through
-//!   [`Slice::from_contours`] only once it arrived whole; errors go down as the core's own
+//!   varints, into a fixed-capacity slice assembler that builds the [`Slice`] (as
+//!   [`Slice::from_contours`] does) only once it arrived whole, in place, into the
+//!   application's [`SliceStore`](slice::SliceStore); errors go down as the core's own
 //!   typed values, the ones the host prints. A watchdog reports the host gone silent, for
 //!   the application to close the valves.
 //!
-//! Below them, [`geometry`] holds points, polygons, polylines and the grid; [`error`] the one
-//! error type. Logging goes through the private `fmt` macros: `defmt` with the `defmt` feature,
-//! nothing otherwise.
+//! Below them, [`geometry`] holds points, polygons, polylines (both on
+//! [`geometry::primitives`]) and the grid; [`error`] the one error type; [`stats`] the
+//! planner's counters, which the phases below the planner count into. Logging goes through the
+//! private `fmt` macros: `defmt` with the `defmt` feature, nothing otherwise.
+//!
+//! ## Memory
+//!
+//! No allocator: working memory is either in the caller's statics (the [`Planner`], the
+//! offset spiral, the [`SliceStore`](slice::SliceStore), the machine; on a controller all of
+//! them in the application's one static) or in the frames of the phase that uses it, which
+//! the phases' turns on the stack then share. Nothing large travels by value: a slice is built
+//! in place, a plan and a slice are borrowed, an MCL's points are read where they lie
+//! ([`Plan::points_iter`]). What is alive at once is kept small:
+//!
+//! * the field's node memory ([`GridMemory`](field::GridMemory), 80 KiB on a controller) is
+//!   lent to the offset spiral once the MCLs are traced ([`Planner::plan_and_grid`]): the
+//!   spiral's distance grid is the same memory, never a second grid;
+//! * the MCL halves keep their points in one pool ([`mcl::Halves`]), a half taking the points
+//!   it has, not room for the most a half may have;
+//! * the keep-out curves are views of their features (the arc lengths are the feature's),
+//!   and the layers' larger working sets (the zigzag's ends, the spiral's walk) sit in frames
+//!   of their own, so that the zigzag's and the spiral's share the stack.
+//!
+//! The capacities (and so the RAM) still grow with the slice, not with its largest cell: the
+//! field, the halves and the spiral's loops are the whole slice's. Planning cell by cell is
+//! the next step (issue 12); the figures are in README.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -104,6 +128,7 @@ pub mod mcl;
 pub mod motion;
 pub mod plan;
 pub mod slice;
+pub mod stats;
 pub mod toolpath;
 pub mod verify;
 

@@ -5,52 +5,20 @@ use heapless::Vec;
 use crate::cells::{Bisector, Cells};
 use crate::config::{MAX_HALVES, MAX_MCLS, MCL_POINTS, TRACE_POINTS};
 use crate::digest::Fnv;
-use crate::field::Field;
+use crate::field::{Field, GridMemory};
 use crate::geometry::Point;
 use crate::mcl::matching::joined_points;
-use crate::mcl::{insert, matching, relax, Half, HalfEnd, Mcl, Target};
+use crate::mcl::{insert, matching, relax, HalfEnd, Halves, Mcl, Target};
 use crate::{Error, Limit, Slice};
 
-/// Counters of one planning run, for the curious and for tests.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct PlanStats {
-    /// Grid nodes of the field.
-    pub grid_nodes: u32,
-    /// Grid spacing, mm.
-    pub grid_h: f32,
-    /// Grid nodes next to a boundary (of [`BOUNDARY_NODES`](crate::config::BOUNDARY_NODES)).
-    pub boundary_nodes: u32,
-    /// Sweeps of the field solve.
-    pub sweeps: u32,
-    /// Largest change in the last sweep.
-    pub residual: f32,
-    /// Halves traced.
-    pub traced: u32,
-    /// Starts that gave no half (not printable, or the line did not reach the boundary).
-    pub failed_traces: u32,
-    /// Halves dropped because they crossed a neighbour.
-    pub dropped_crossing: u32,
-    /// Bisector halves whose end lay on no traced bisector piece (removed).
-    pub off_bisector: u32,
-    /// Matched pairs.
-    pub matched_pairs: u32,
-    /// Halves removed for want of a match.
-    pub removed_unmatched: u32,
-    /// Relaxation moves made.
-    pub relax_moves: u32,
-    /// Ends removed because they still crowded after relaxation.
-    pub thinned: u32,
-    /// MCLs removed by the final check: a segment leaving the printable region or crossing
-    /// another MCL after matching and relaxation reshaped it.
-    pub removed_invalid: u32,
-}
+// Defined below the MCL phases that count into it (no import of this module from them).
+pub use crate::stats::PlanStats;
 
 /// A finished plan: the MCLs, the bisectors and the branch points.
 #[derive(Clone, Debug, Default)]
 pub struct Plan {
     /// The halves the MCLs are made of (see [`Mcl::first`], [`Mcl::second`]).
-    pub halves: Vec<Half, MAX_HALVES>,
+    pub halves: Halves,
     /// The MCLs, ordered by hole and position along it.
     pub mcls: Vec<Mcl, MAX_MCLS>,
     /// The cells' bisectors and branch points.
@@ -72,10 +40,10 @@ impl Plan {
 
     /// The points of an MCL as [`points`](Self::points) gives them, without copying them.
     pub fn points_iter(&self, mcl: &Mcl) -> impl Iterator<Item = Point> + '_ {
-        let first = self.halves[mcl.first as usize].points.iter();
+        let first = self.halves.points(mcl.first as usize).iter();
         let second = mcl
             .second
-            .map(|s| self.halves[s as usize].points.iter().rev().skip(1));
+            .map(|s| self.halves.points(s as usize).iter().rev().skip(1));
         first.chain(second.into_iter().flatten()).copied()
     }
 
@@ -150,7 +118,7 @@ impl Planner {
             field: Field::new(),
             scratch: Vec::new(),
             plan: Plan {
-                halves: Vec::new(),
+                halves: Halves::new(),
                 mcls: Vec::new(),
                 cells: Cells::new(),
                 stats: PlanStats {
@@ -160,6 +128,7 @@ impl Planner {
                     sweeps: 0,
                     residual: 0.0,
                     traced: 0,
+                    half_points: 0,
                     failed_traces: 0,
                     dropped_crossing: 0,
                     off_bisector: 0,
@@ -178,9 +147,20 @@ impl Planner {
         &self.plan
     }
 
-    /// The field of the last run (labels and harmonic values).
+    /// The field of the last run (labels and harmonic values); empty once its memory was
+    /// lent ([`plan_and_grid`](Self::plan_and_grid)).
     pub fn field(&self) -> &Field {
         &self.field
+    }
+
+    /// The plan of the last successful run, and the field's node memory lent for another
+    /// grid (the offset spiral's distances: [`OffsetSpiral::prepare`]): the field is not
+    /// needed once the MCLs are traced, and this way the planner and the spiral never hold
+    /// two grids at once. The field is empty afterwards.
+    ///
+    /// [`OffsetSpiral::prepare`]: crate::toolpath::offset::OffsetSpiral::prepare
+    pub fn plan_and_grid(&mut self) -> (&Plan, &mut GridMemory) {
+        (&self.plan, self.field.lend())
     }
 
     /// Plans the MCLs of `slice`: cells, insertion, matching, relaxation. On error the previous
@@ -237,27 +217,28 @@ impl Planner {
                 next += 1;
             }
         }
-        plan.halves.retain(|h| h.alive);
+        plan.halves.retain_alive();
         for h in plan.halves.iter_mut() {
             h.partner = h.partner.map(|p| remap[p as usize]);
         }
         let order = insert::sorted_all(&plan.halves);
         for &k in order.iter() {
             let h = &plan.halves[k as usize];
+            let end_point = plan.halves.end_point(k as usize);
             let mcl = match (h.end, h.partner) {
                 (HalfEnd::Wall, _) => Mcl {
                     from: h.hole,
                     to: Target::Wall,
                     first: k,
                     second: None,
-                    joint: h.end_point(),
+                    joint: end_point,
                 },
                 (HalfEnd::Bisector(j), Some(p)) if h.hole < j => Mcl {
                     from: h.hole,
                     to: Target::Hole(j),
                     first: k,
                     second: Some(p),
-                    joint: h.end_point(),
+                    joint: end_point,
                 },
                 _ => continue,
             };
@@ -279,9 +260,9 @@ impl Planner {
 /// The final check on the halves: a half (with its partner) is removed if, after matching and
 /// relaxation dragged it, a segment leaves the printable region or it crosses another half of
 /// its cell. Whatever survives has the properties [`verify`](crate::verify::verify) checks.
-fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
+fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
     use crate::geometry::polyline;
-    let remove = |halves: &mut [Half], k: usize, stats: &mut PlanStats| {
+    let remove = |halves: &mut Halves, k: usize, stats: &mut PlanStats| {
         halves[k].alive = false;
         if let Some(p) = halves[k].partner {
             halves[p as usize].alive = false;
@@ -292,13 +273,13 @@ fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
         if !halves[k].alive {
             continue;
         }
-        let inside = slice.polyline_is_printable(&halves[k].points, 1e-3);
+        let inside = slice.polyline_is_printable(halves.points(k), 1e-3);
         if !inside {
             remove(halves, k, stats);
         }
     }
     for a in 0..halves.len() {
-        let box_a = polyline::bbox(&halves[a].points);
+        let box_a = polyline::bbox(halves.points(a));
         for b in (a + 1)..halves.len() {
             let (ha, hb) = (&halves[a], &halves[b]);
             if !ha.alive || !hb.alive || ha.partner == Some(b as u16) {
@@ -308,8 +289,8 @@ fn sanitize(slice: &Slice, halves: &mut [Half], stats: &mut PlanStats) {
                 || ha.end == HalfEnd::Bisector(hb.hole)
                 || hb.end == HalfEnd::Bisector(ha.hole);
             if related
-                && polyline::boxes_overlap(box_a, polyline::bbox(&hb.points), 1e-4)
-                && polyline::polylines_cross(&ha.points, &hb.points)
+                && polyline::boxes_overlap(box_a, polyline::bbox(halves.points(b)), 1e-4)
+                && polyline::polylines_cross(halves.points(a), halves.points(b))
             {
                 remove(halves, b, stats);
             }

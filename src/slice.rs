@@ -31,6 +31,8 @@ pub struct Feature {
     bbox: (Point, Point),
     /// Bounding boxes of runs of [`CHUNK`] edges, to skip far edges in distance queries.
     chunks: Vec<(Point, Point), { MAX_VERTICES / CHUNK }>,
+    /// Arc length of the boundary up to each vertex (the keep-out curves' parameter).
+    at_vertex: Vec<f32, MAX_VERTICES>,
 }
 
 /// Edges per chunk of a feature's distance index.
@@ -64,6 +66,18 @@ impl Nearest {
 }
 
 impl Feature {
+    /// A feature of no points, as storage (not valid).
+    const fn blank() -> Feature {
+        Feature {
+            id: FeatureId::Wall,
+            points: Vec::new(),
+            material: [0.0; CHANNELS],
+            bbox: (Point::new(0.0, 0.0), Point::new(0.0, 0.0)),
+            chunks: Vec::new(),
+            at_vertex: Vec::new(),
+        }
+    }
+
     /// Checks one polygon on its own (finite, in range, at least 3 distinct points, some area,
     /// no self-intersection, material fractions) and stores it counter-clockwise. Repeated
     /// consecutive points and a repeated closing point are dropped.
@@ -139,12 +153,20 @@ impl Feature {
             // Never full: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
             chunks.push(b).map_err(|_| Limit::Vertices.error())?;
         }
+        let mut at_vertex = Vec::new();
+        let mut acc = 0.0;
+        for k in 0..n {
+            // Never full: one per vertex, of the same capacity.
+            at_vertex.push(acc).map_err(|_| Limit::Vertices.error())?;
+            acc += pts[k].dist(pts[(k + 1) % n]);
+        }
         Ok(Feature {
             id,
             points: pts,
             material,
             bbox,
             chunks,
+            at_vertex,
         })
     }
 
@@ -214,6 +236,11 @@ impl Feature {
                 other => return other,
             }
         }
+    }
+
+    /// The arc length of the boundary (counter-clockwise from vertex 0) up to each vertex.
+    pub fn arc_lengths(&self) -> &[f32] {
+        &self.at_vertex
     }
 
     /// Which feature this is.
@@ -616,9 +643,53 @@ impl Slice {
                 holes: holes.len().min(u32::MAX as usize) as u32,
             });
         }
-        let mut stored: Vec<Feature, MAX_HOLES> = Vec::new();
-        for (i, h) in holes.iter().enumerate() {
-            let mut h = h.clone();
+        let mut slice = Slice {
+            wall,
+            holes: Vec::new(),
+            settings,
+        };
+        for h in holes {
+            // Never full: `holes.len() <= MAX_HOLES` was checked.
+            slice
+                .holes
+                .push(h.clone())
+                .map_err(|_| Limit::Holes.error())?;
+        }
+        slice.check()?;
+        Ok(slice)
+    }
+
+    /// A slice of no contours, as storage to build one in ([`SliceStore`]); not valid.
+    const fn blank() -> Slice {
+        Slice {
+            wall: Feature::blank(),
+            holes: Vec::new(),
+            settings: Settings {
+                road_width: 0.0,
+                layer_height: 0.0,
+                w_n: 0.0,
+                w_d: 0.0,
+                delta: 0.0,
+                mcl_spacing: 0.0,
+                relax_iterations: 0,
+                relax_spacing: 0.0,
+                min_width: 0.0,
+                max_width: 0.0,
+                simplify_tolerance: 0.0,
+            },
+        }
+    }
+
+    /// Numbers the features (the wall, holes from 0 in order) and validates the slice as a
+    /// whole, in place: every hole strictly inside the wall, holes pairwise disjoint and not
+    /// nested (the first fault in hole order).
+    fn check(&mut self) -> Result<(), Error> {
+        self.wall.id = FeatureId::Wall;
+        let wall = &self.wall;
+        for i in 0..self.holes.len() {
+            let (stored, rest) = self.holes.split_at_mut(i);
+            let h = &mut rest[0];
+            // At most MAX_HOLES (<= 64) holes: fits the `u8`.
             h.id = FeatureId::Hole(i as u8);
             let hole = i as u8;
             for (v, &p) in h.points.iter().enumerate() {
@@ -654,15 +725,8 @@ impl Slice {
                     });
                 }
             }
-            stored.push(h).map_err(|_| Limit::Holes.error())?;
         }
-        let mut wall = wall;
-        wall.id = FeatureId::Wall;
-        Ok(Slice {
-            wall,
-            holes: stored,
-            settings,
-        })
+        Ok(())
     }
 
     /// Builds and validates a slice from raw contours (a wall and `(points, material)` per
@@ -676,24 +740,40 @@ impl Slice {
         holes: &[(&[Point], Material)],
         settings: Settings,
     ) -> Result<Slice, Error> {
+        let mut slice = Slice::blank();
+        slice.fill_from_contours(wall, wall_material, holes, settings)?;
+        Ok(slice)
+    }
+
+    /// [`from_contours`](Self::from_contours) into this slice's own storage, with no
+    /// slice-sized temporary (a controller's [`SliceStore`]). On error the slice holds
+    /// whatever was built so far: not a valid slice.
+    fn fill_from_contours(
+        &mut self,
+        wall: &[Point],
+        wall_material: Material,
+        holes: &[(&[Point], Material)],
+        settings: Settings,
+    ) -> Result<(), Error> {
         settings.validate()?;
         if holes.len() > MAX_HOLES {
             return Err(Error::TooManyHoles {
                 holes: holes.len().min(u32::MAX as usize) as u32,
             });
         }
+        self.settings = settings;
         const WALL: usize = MAX_HOLES;
         let mut tols = [settings.simplify_tolerance; MAX_HOLES + 1];
         loop {
-            let w = Feature::simplified(FeatureId::Wall, wall, wall_material, tols[WALL])?;
-            let mut built: Vec<Feature, MAX_HOLES> = Vec::new();
+            self.wall = Feature::simplified(FeatureId::Wall, wall, wall_material, tols[WALL])?;
+            self.holes.clear();
             for (i, &(pts, m)) in holes.iter().enumerate() {
                 let f = Feature::simplified(FeatureId::Hole(i as u8), pts, m, tols[i])?;
                 // Never full: `holes.len() <= MAX_HOLES` was checked.
-                built.push(f).map_err(|_| Limit::Holes.error())?;
+                self.holes.push(f).map_err(|_| Limit::Holes.error())?;
             }
-            let e = match Slice::new(w, &built, settings) {
-                Ok(slice) => return Ok(slice),
+            let e = match self.check() {
+                Ok(()) => return Ok(()),
                 Err(e) => e,
             };
             let named = match e {
@@ -716,6 +796,41 @@ impl Slice {
             }
             if !refined {
                 return Err(e);
+            }
+        }
+    }
+
+    /// Feature `k` in the layers' numbering of the features: hole `k`, and the wall after
+    /// the holes (`k == holes().len()`, or any larger `k`).
+    pub fn feature_at(&self, k: usize) -> &Feature {
+        self.holes.get(k).unwrap_or(&self.wall)
+    }
+
+    /// The material of feature `k` ([`feature_at`](Self::feature_at)'s numbering).
+    pub fn material_at(&self, k: usize) -> Material {
+        self.feature_at(k).material()
+    }
+
+    /// The distance from `p` to feature `k` ([`feature_at`](Self::feature_at)'s numbering),
+    /// positive on the printable side of it (outside a hole, inside the wall).
+    pub fn clearance_to(&self, k: usize, p: Point) -> f32 {
+        match self.holes.get(k) {
+            Some(h) => h.nearest(p).distance,
+            None => -self.wall.nearest(p).distance,
+        }
+    }
+
+    /// [`clearance_to`](Self::clearance_to) and its gradient (the unit vector away from
+    /// the feature on its printable side).
+    pub fn clearance_gradient_to(&self, k: usize, p: Point) -> (f32, Point) {
+        match self.holes.get(k) {
+            Some(h) => {
+                let n = h.nearest(p);
+                (n.distance, n.gradient(p))
+            }
+            None => {
+                let n = self.wall.nearest(p);
+                (-n.distance, -n.gradient(p))
             }
         }
     }
@@ -917,5 +1032,72 @@ impl Slice {
     /// printable, no feature boundary crossed, no feature nearer than half a road width.
     pub fn segment_is_printable(&self, a: Point, b: Point, tol: f32) -> bool {
         self.polyline_is_printable(&[a, b], tol)
+    }
+}
+
+/// Storage for one slice, built in place: on a controller a [`Slice`] is 21 KiB (2.3 MiB in
+/// the `large` build), and building one by value (returned through `Result`s and closures)
+/// took a copy in every frame on the way; the application keeps one of these in its static
+/// and the link's assembler builds the arriving slice straight into it.
+///
+/// ```
+/// # std::thread::Builder::new().stack_size(256 << 20).spawn(|| {
+/// use hollowpath::{geometry::Point, slice::SliceStore, Settings};
+/// let square = |c: f32, r: f32| [Point::new(c - r, -r), Point::new(c + r, -r), Point::new(c + r, r), Point::new(c - r, r)];
+/// let mut store = Box::new(SliceStore::new());
+/// assert!(store.get().is_none());
+/// let holes = [(&square(0.0, 2.0)[..], [0.0, 1.0, 0.0, 0.0])];
+/// store.build_from_contours(&square(0.0, 8.0), [1.0, 0.0, 0.0, 0.0], &holes, Settings::default()).unwrap();
+/// assert_eq!(store.get().unwrap().holes().len(), 1);
+/// // A refused slice leaves nothing behind.
+/// let outside = [(&square(20.0, 2.0)[..], [0.0, 1.0, 0.0, 0.0])];
+/// assert!(store.build_from_contours(&square(0.0, 8.0), [1.0, 0.0, 0.0, 0.0], &outside, Settings::default()).is_err());
+/// assert!(store.get().is_none());
+/// # }).unwrap().join().unwrap();
+/// ```
+pub struct SliceStore {
+    slice: Slice,
+    valid: bool,
+}
+
+impl SliceStore {
+    /// Empty storage (holding no slice).
+    pub const fn new() -> SliceStore {
+        SliceStore {
+            slice: Slice::blank(),
+            valid: false,
+        }
+    }
+
+    /// The slice built last, unless the build failed or the store was cleared since.
+    pub fn get(&self) -> Option<&Slice> {
+        self.valid.then_some(&self.slice)
+    }
+
+    /// Forgets the slice.
+    pub fn clear(&mut self) {
+        self.valid = false;
+    }
+
+    /// Builds and validates a slice from raw contours into this storage, exactly as
+    /// [`Slice::from_contours`] does; on error the store holds no slice.
+    pub fn build_from_contours(
+        &mut self,
+        wall: &[Point],
+        wall_material: Material,
+        holes: &[(&[Point], Material)],
+        settings: Settings,
+    ) -> Result<&Slice, Error> {
+        self.valid = false;
+        self.slice
+            .fill_from_contours(wall, wall_material, holes, settings)?;
+        self.valid = true;
+        Ok(&self.slice)
+    }
+}
+
+impl Default for SliceStore {
+    fn default() -> Self {
+        Self::new()
     }
 }

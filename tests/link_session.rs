@@ -41,7 +41,9 @@ fn exchange(host: &mut Host, ctrl: &mut Ctrl, now: u64) -> (Vec<Event>, Vec<Ctrl
         let (e, r) = ctrl.receive(now, rest);
         rest = r;
         if e == Some(Event::SliceReady) {
-            let _ = ctrl.finish_slice();
+            // The outcome reaches the host as a reply (accepted, or the error).
+            let mut store = Box::new(hollowpath::slice::SliceStore::new());
+            let _ = ctrl.finish_slice(&mut store);
         }
         events.extend(e);
     }

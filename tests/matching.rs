@@ -115,15 +115,22 @@ fn p_star_is_the_objective_weighted_point_of_equation_2_3() {
         let before: Vec<Option<(f32, f32)>> = plan
             .halves
             .iter()
-            .map(|h| {
+            .enumerate()
+            .map(|(x, h)| {
                 let HalfEnd::Bisector(j) = h.end else {
                     return None;
                 };
-                let p = h.end_point();
+                let p = plan.halves.end_point(x);
                 let away =
                     |i: usize| (p - polygon::closest(slice.holes()[i].points(), p).0).normalized();
                 let normal = (away(h.hole as usize) - away(j as usize)).normalized();
-                let f = objective(normal, h.start_normal, p.dist(h.start()), w_n, w_d);
+                let f = objective(
+                    normal,
+                    h.start_normal,
+                    p.dist(plan.halves.start(x)),
+                    w_n,
+                    w_d,
+                );
                 Some((polyline::project(&bis, p).0, f))
             })
             .collect();
@@ -144,9 +151,9 @@ fn p_star_is_the_objective_weighted_point_of_equation_2_3() {
             };
             let pstar = polyline::point_at(&bis, ustar);
             assert!(
-                h.end_point().dist(pstar) < 1e-4,
+                plan.halves.end_point(x).dist(pstar) < 1e-4,
                 "p* {:?} expected {pstar:?}",
-                h.end_point()
+                plan.halves.end_point(x)
             );
             checked += 1;
         }

@@ -139,7 +139,8 @@ proptest! {
         }
         path.clear();
         let mut work = Box::new(OffsetSpiral::new());
-        let s = work.build(&slice, plan, &mut *path).map_err(|e| TestCaseError::fail(format!("offset: {e}")))?;
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
+        let s = work.build(&slice, plan, &mut grid, &mut *path).map_err(|e| TestCaseError::fail(format!("offset: {e}")))?;
         check_layer(&slice, &path).map_err(|e| TestCaseError::fail(format!("offset spiral: {e}")))?;
         prop_assert_eq!(common::starts(&path), 1 + s.jumps as usize);
         let again = planner.plan(&slice).unwrap().digest();
@@ -254,7 +255,8 @@ proptest! {
         }
         path.clear();
         let mut work = Box::new(OffsetSpiral::new());
-        match work.build(&slice, plan, &mut *path) {
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
+        match work.build(&slice, plan, &mut grid, &mut *path) {
             Ok(_) => check_layer_with(&slice, &path, false).map_err(|e| TestCaseError::fail(format!("offset spiral: {e}")))?,
             Err(hollowpath::Error::Capacity { .. }) => {}
             Err(e) => return Err(TestCaseError::fail(format!("offset spiral: {e}"))),

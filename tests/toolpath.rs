@@ -90,8 +90,9 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
     let mut planner = Box::new(Planner::new());
     let plan = planner.plan(&slice).unwrap();
     let mut work = Box::new(OffsetSpiral::new());
+    let mut grid = Box::new(hollowpath::field::GridMemory::new());
     let mut path = Box::new(Path::new());
-    let stats = work.build(&slice, plan, &mut *path).unwrap();
+    let stats = work.build(&slice, plan, &mut grid, &mut *path).unwrap();
     check_layer(&slice, &path).unwrap();
     assert_eq!(stats.jumps, 0, "{stats:?}");
     assert_eq!(starts(&path), 1);
@@ -146,7 +147,7 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
     assert!(n + 1 >= stats.levels as i32, "{used:?} of {stats:?}");
     // Deterministic: the same slice gives the same path.
     let mut again = Box::new(Path::new());
-    work.build(&slice, plan, &mut *again).unwrap();
+    work.build(&slice, plan, &mut grid, &mut *again).unwrap();
     assert!(path.iter().eq(again.iter()));
 }
 
@@ -321,8 +322,9 @@ fn a_slice_without_holes_is_one_offset_spiral_road_and_the_mcl_layers_refuse_it(
     assert!(plan.mcls.is_empty() && plan.halves.is_empty());
     hollowpath::verify::verify(&slice, plan).unwrap();
     let mut work = Box::new(OffsetSpiral::new());
+    let mut grid = Box::new(hollowpath::field::GridMemory::new());
     let mut path = Box::new(Path::new());
-    let stats = work.build(&slice, plan, &mut *path).unwrap();
+    let stats = work.build(&slice, plan, &mut grid, &mut *path).unwrap();
     check_layer(&slice, &path).unwrap();
     assert_eq!(starts(&path), 1, "{stats:?}");
     assert_eq!(stats.jumps, 0);
@@ -341,21 +343,24 @@ fn a_slice_without_holes_is_one_offset_spiral_road_and_the_mcl_layers_refuse_it(
     );
     // Deterministic.
     let mut again = Box::new(Path::new());
-    work.build(&slice, plan, &mut *again).unwrap();
+    work.build(&slice, plan, &mut grid, &mut *again).unwrap();
     assert!(path.iter().eq(again.iter()));
 }
 
 /// The spiral's loops and joins are prepared once per slice: a second build of the same
 /// slice lays the same path bit for bit, and another slice (here the same contours at
-/// another road width) is prepared anew, never walked on the first slice's loops.
+/// another road width) is prepared anew, never walked on the first slice's loops. The
+/// distance grid is the planner's field memory, lent as on a controller, and plans made after
+/// the spiral wrote over it are bit-identical to a fresh planner's.
 #[test]
 fn offset_spiral_prepared_once_lays_the_same_path_and_a_new_slice_is_prepared_anew() {
     let fresh = |slice: &hollowpath::Slice| {
         let mut planner = Box::new(Planner::new());
         let plan = planner.plan(slice).unwrap();
         let mut work = Box::new(OffsetSpiral::new());
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
         let mut path = Box::new(Path::new());
-        work.build(slice, plan, &mut *path).unwrap();
+        work.build(slice, plan, &mut grid, &mut *path).unwrap();
         path
     };
     let a = two_circles(Settings::default());
@@ -363,20 +368,34 @@ fn offset_spiral_prepared_once_lays_the_same_path_and_a_new_slice_is_prepared_an
     let (want_a, want_b) = (fresh(&a), fresh(&b));
     assert_ne!(want_a.len(), want_b.len());
 
+    // As a controller runs it: one planner, whose field lends its node memory to the spiral
+    // once the plan is made (`plan_and_grid`); planning again is not disturbed by what the
+    // spiral left in that memory.
+    let digest_of = |slice: &hollowpath::Slice| {
+        let mut fresh = Box::new(Planner::new());
+        fresh.plan(slice).unwrap().digest()
+    };
     let mut planner = Box::new(Planner::new());
     let mut work = Box::new(OffsetSpiral::new());
-    let plan = planner.plan(&a).unwrap();
-    let prepared = work.prepare(&a).unwrap();
+    planner.plan(&a).unwrap();
+    assert!(!planner.field().grid().is_empty());
+    let (plan, grid) = planner.plan_and_grid();
+    let prepared = work.prepare(&a, grid).unwrap();
     for _ in 0..2 {
         let mut path = Box::new(Path::new());
-        let stats = work.build(&a, plan, &mut *path).unwrap();
+        let stats = work.build(&a, plan, grid, &mut *path).unwrap();
         assert_eq!(stats.loops, prepared.loops);
         assert_eq!(path.len(), want_a.len());
         assert!(path.iter().zip(want_a.iter()).all(|(p, q)| p == q));
     }
-    let plan = planner.plan(&b).unwrap();
+    // The field is empty while lent.
+    assert!(planner.field().grid().is_empty());
+    assert_eq!(planner.plan(&b).unwrap().digest(), digest_of(&b));
+    let (plan, grid) = planner.plan_and_grid();
     let mut path = Box::new(Path::new());
-    work.build(&b, plan, &mut *path).unwrap();
+    work.build(&b, plan, grid, &mut *path).unwrap();
     assert_eq!(path.len(), want_b.len());
     assert!(path.iter().zip(want_b.iter()).all(|(p, q)| p == q));
+    // Back to the first slice, after the spiral wrote over the field's memory twice.
+    assert_eq!(planner.plan(&a).unwrap().digest(), digest_of(&a));
 }

@@ -19,10 +19,11 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
+use hollowpath::slice::SliceStore;
 use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::zigzag::zigzag;
 use hollowpath::toolpath::DigestSink;
-use hollowpath::{Feature, FeatureId, Planner, Settings, Slice};
+use hollowpath::{Planner, Settings, Slice};
 use static_cell::{ConstStaticCell, StaticCell};
 
 mod link_board;
@@ -40,6 +41,9 @@ mod slice_data {
     }
     include!(concat!(env!("OUT_DIR"), "/slice_data.rs"));
 }
+
+/// The slice being benched, built in place, in .bss.
+static SLICE: ConstStaticCell<SliceStore> = ConstStaticCell::new(SliceStore::new());
 
 /// The planner's working memory, in .bss (its initial value is all zeros).
 static PLANNER: ConstStaticCell<Planner> = ConstStaticCell::new(Planner::new());
@@ -91,18 +95,24 @@ fn fail(what: &str, e: impl core::fmt::Debug) -> ! {
     loop {}
 }
 
-fn built_in_slice(r: &slice_data::RefSlice) -> Slice {
-    let wall =
-        Feature::new(FeatureId::Wall, r.wall.0, r.wall.1).unwrap_or_else(|e| fail("wall", e));
-    let mut holes: hollowpath::heapless::Vec<Feature, { hollowpath::config::MAX_HOLES }> =
-        hollowpath::heapless::Vec::new();
-    for (i, (pts, m)) in r.holes.iter().enumerate() {
-        let f = Feature::new(FeatureId::Hole(i as u8), pts, *m).unwrap_or_else(|e| fail("hole", e));
-        if holes.push(f).is_err() {
+/// Builds reference slice `r` into `store` as the controller's link does (in place).
+fn built_in_slice<'s>(r: &slice_data::RefSlice, store: &'s mut SliceStore) -> &'s Slice {
+    let mut holes: hollowpath::heapless::Vec<
+        (&[hollowpath::geometry::Point], hollowpath::Material),
+        { hollowpath::config::MAX_HOLES },
+    > = hollowpath::heapless::Vec::new();
+    for &(pts, m) in r.holes.iter() {
+        if holes.push((pts, m)).is_err() {
             fail("holes", "too many");
         }
     }
-    Slice::new(wall, &holes, Settings::for_road_width(r.road_width))
+    store
+        .build_from_contours(
+            r.wall.0,
+            r.wall.1,
+            &holes,
+            Settings::for_road_width(r.road_width),
+        )
         .unwrap_or_else(|e| fail("slice", e))
 }
 
@@ -118,15 +128,19 @@ fn main() -> ! {
     while cortex_m::peripheral::SYST::get_current() == 0 {}
 
     stack::paint();
+    if !stack::install_guard(&mut cp.MPU) {
+        fail("stack guard", "not aligned to its size");
+    }
     check_sqrt();
+    let store = SLICE.take();
     let planner = PLANNER.take();
     let offset = OFFSET.take();
     for (k, r) in slice_data::SLICES.iter().enumerate() {
-        bench_slice(r, planner, offset);
+        bench_slice(r, store, planner, offset);
         if k == 0 {
-            // four_holes: its plan is still the planner's.
+            // four_holes: it is still the store's slice and its plan the planner's.
             stack::paint();
-            bench_motion(r, planner);
+            bench_motion(r, store, planner);
             hprintln!("stack motion {} {}", r.name, stack::peak());
         }
     }
@@ -163,12 +177,12 @@ fn check_sqrt() {
 }
 
 /// Streams the zigzag of `r`, the slice the planner planned last, into the motion controller
-/// and steps it against counting pins (its first `motion_bench::MOVES` moves). The slice is
-/// built again (a few million instructions; the plan is not redone): the one of
-/// [`bench_slice`] lived in its frame.
+/// and steps it against counting pins (its first `motion_bench::MOVES` moves).
 #[inline(never)]
-fn bench_motion(r: &slice_data::RefSlice, planner: &Planner) {
-    let slice = built_in_slice(r);
+fn bench_motion(r: &slice_data::RefSlice, store: &SliceStore, planner: &Planner) {
+    let Some(slice) = store.get() else {
+        fail("motion", r.name)
+    };
     let plan = planner.last_plan();
     // The zigzag layer again, streamed into the motion controller and stepped against
     // counting pins (its first `motion_bench::MOVES` moves).
@@ -180,7 +194,7 @@ fn bench_motion(r: &slice_data::RefSlice, planner: &Planner) {
     let mut feed = motion_bench::Feed::new(machine, &mut board, z, ticks);
     feed.home();
     let homed = feed.figures;
-    let result = zigzag(&slice, plan, &mut feed);
+    let result = zigzag(slice, plan, &mut feed);
     feed.drain();
     if let Some(why) = feed.refused {
         fail("motion", why);
@@ -219,7 +233,12 @@ fn bench_motion(r: &slice_data::RefSlice, planner: &Planner) {
 /// Validates, plans and verifies reference slice `r`, builds its two layers into digest
 /// sinks (as a motion queue would take them: no path buffer), and prints the figures.
 #[inline(never)]
-fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut OffsetSpiral) {
+fn bench_slice(
+    r: &slice_data::RefSlice,
+    store: &mut SliceStore,
+    planner: &mut Planner,
+    offset: &mut OffsetSpiral,
+) {
     let name = r.name;
     // Each phase: the stack painted before it, its instructions and stack peak after.
     let start = || {
@@ -228,13 +247,13 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
     };
     let done = |t: u64| ((ticks() - t) * INSNS_PER_TICK, stack::peak());
     let t = start();
-    let slice = built_in_slice(r);
+    let slice = built_in_slice(r, store);
     let validate = done(t);
     let t = start();
-    let plan = planner.plan(&slice).unwrap_or_else(|e| fail("plan", e));
+    let plan = planner.plan(slice).unwrap_or_else(|e| fail("plan", e));
     let planned = done(t);
     let t = start();
-    let verdict = hollowpath::verify::verify(&slice, plan);
+    let verdict = hollowpath::verify::verify(slice, plan);
     let verified = done(t);
     hprintln!(
         "slice {} mcls {} bisectors {} branch_points {} digest {:016x}",
@@ -249,7 +268,7 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
     }
     let mut sink = DigestSink::new();
     let t = start();
-    zigzag(&slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
+    zigzag(slice, plan, &mut sink).unwrap_or_else(|e| fail("zigzag", e));
     let zigzagged = done(t);
     hprintln!(
         "layer {} 0 vertices {} digest {:016x}",
@@ -257,10 +276,12 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
         sink.len(),
         sink.digest()
     );
+    // The plan's field is done with: its node memory becomes the spiral's distance grid.
+    let (plan, grid) = planner.plan_and_grid();
     let mut sink = DigestSink::new();
     let t = start();
     let stats = offset
-        .build(&slice, plan, &mut sink)
+        .build(slice, plan, grid, &mut sink)
         .unwrap_or_else(|e| fail("offset spiral", e));
     let spiralled = done(t);
     hprintln!(
@@ -276,7 +297,7 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
     let mut sink = DigestSink::new();
     let t = start();
     offset
-        .build(&slice, plan, &mut sink)
+        .build(slice, plan, grid, &mut sink)
         .unwrap_or_else(|e| fail("offset spiral, prepared", e));
     let prepared = done(t);
     if (sink.len(), sink.digest()) != first {
@@ -296,6 +317,17 @@ fn bench_slice(r: &slice_data::RefSlice, planner: &mut Planner, offset: &mut Off
         hprintln!("bench {} {} {}", phase, name, insns);
         hprintln!("stack {} {} {}", phase, name, stack);
     }
+}
+
+/// The HardFault handler, entered through `stack.rs`'s entry on a fresh stack (`sp` the
+/// faulting one): the valves first, then what happened (a stack overflow or the faulting
+/// address), and QEMU exits with failure.
+extern "C" fn on_hard_fault(sp: u32) -> ! {
+    link_board::shut_valves();
+    stack::fault_report(sp);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
 }
 
 #[panic_handler]

@@ -1,22 +1,48 @@
-//! RAM figures of the firmware: the statics (everything the linker places in RAM, `.data`,
-//! `.bss`, `.uninit`) and the stack's peak, measured by painting the free RAM between the end
-//! of the statics and the stack pointer and finding the lowest word a frame wrote. Painting
-//! again before a phase measures that phase's peak ([`peak`]); [`highest`] is the peak over
-//! the whole run.
+//! The stack: its guard, its fault entry and its RAM figures.
+//!
+//! **Guard.** The stack sits at the bottom of RAM, below the statics (`firmware/memory.x`),
+//! and grows down towards the start of RAM. The [`GUARD`] bytes below it are an MPU region
+//! no code may read or write ([`install_guard`]): a stack that grows past its bottom faults at
+//! once, however large the frame that overflows (up to the guard's 64 KiB; the largest frame
+//! of the firmwares is the planner's, 37 KiB), and can never reach a static above it.
+//!
+//! **Fault entry.** The MPU fault escalates to HardFault (MemManage is left disabled), which
+//! runs with the MPU off (`HFNMIENA` clear). Its entry ([`HardFault`], in assembly) first
+//! moves the stack pointer back to the top of the stack, so that the handler has a stack even
+//! when the fault was the stack running out (its frames overwrite `main`'s, which never runs
+//! again), then calls the firmware's `on_hard_fault(sp)` with the faulting stack pointer,
+//! which closes the valves and says what happened ([`fault_report`]).
+//!
+//! **Figures.** The statics (everything the linker places in RAM, `.data`, `.bss`,
+//! `.uninit`) and the stack's peak, measured by painting the free stack between its bottom
+//! and the stack pointer and finding the lowest word a frame wrote. Painting again before a
+//! phase measures that phase's peak ([`peak`]); [`highest`] is the peak over the whole run.
 
 use core::sync::atomic::{AtomicUsize, Ordering};
 
 /// The paint: a word a frame is unlikely to leave behind.
 const PAINT: u32 = 0xC0DE_5AFE;
 
+/// Bytes of the guard region below the stack: a power of two (the MPU's rule: its base
+/// aligned to its size), larger than any frame of the firmwares.
+pub const GUARD: usize = 64 * 1024;
+const _: () = assert!(GUARD.is_power_of_two() && GUARD >= 32);
+
 extern "C" {
     static _ram_start: u32;
     static __sheap: u32;
     static _stack_start: u32;
+    static _stack_end: u32;
 }
 
 fn addr(s: &u32) -> usize {
     s as *const u32 as usize
+}
+
+/// The stack's bottom and top addresses.
+fn stack_bounds() -> (usize, usize) {
+    // SAFETY: only the addresses of the linker's symbols are taken, never their contents.
+    unsafe { (addr(&_stack_end), addr(&_stack_start)) }
 }
 
 /// Bytes of RAM the statics take.
@@ -25,25 +51,123 @@ pub fn statics() -> usize {
     unsafe { addr(&__sheap) - addr(&_ram_start) }
 }
 
-/// Bytes between the end of the statics and the top of RAM: the most the stack can take
-/// before it writes over them.
+/// The guard region, `[start, end)`: the [`GUARD`] bytes below the stack's bottom.
+pub fn guard() -> (usize, usize) {
+    let (bottom, _) = stack_bounds();
+    (bottom - GUARD, bottom)
+}
+
+/// Bytes of the stack: the most it can take.
 pub fn room() -> usize {
-    // SAFETY: only the addresses of the linker's symbols are taken, never their contents.
-    unsafe { addr(&_stack_start) - addr(&__sheap) }
+    let (bottom, top) = stack_bounds();
+    top - bottom
+}
+
+/// Makes the guard region inaccessible (MPU region 0: no access, never executed) and enables
+/// the MPU with the default memory map everywhere else. Call it once, after [`paint`]ing.
+/// Returns `false` (and installs nothing) if the guard is not aligned to its size.
+pub fn install_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
+    let (start, _) = guard();
+    if start % GUARD != 0 {
+        return false;
+    }
+    // RASR: XN (bit 28), AP = 0b000 (no access, bits 24..27), SIZE = log2(GUARD) - 1 (bits
+    // 1..6), ENABLE (bit 0).
+    let rasr = (1 << 28) | ((GUARD.trailing_zeros() - 1) << 1) | 1;
+    // SAFETY: region 0 covers only the guard, below the RAM the stack and the statics use;
+    // PRIVDEFENA keeps the default map for everything else, so no other access changes. The
+    // barriers make the new map apply from the next instruction.
+    unsafe {
+        mpu.rnr.write(0);
+        mpu.rbar.write(start as u32);
+        mpu.rasr.write(rasr);
+        // CTRL: ENABLE (bit 0), PRIVDEFENA (bit 2); HFNMIENA (bit 1) clear: the HardFault
+        // handler runs without the MPU.
+        mpu.ctrl.write(1 | (1 << 2));
+    }
+    cortex_m::asm::dsb();
+    cortex_m::asm::isb();
+    true
+}
+
+// The HardFault entry (the vector table's `HardFault`, instead of cortex-m-rt's trampoline):
+// the faulting stack pointer in r0, the stack pointer moved to the top of the stack, then the
+// firmware's `on_hard_fault(sp: u32) -> !` (each firmware that includes this module defines
+// it at its crate root).
+core::arch::global_asm!(
+    ".section .HardFault.user, \"ax\"",
+    ".global HardFault",
+    ".type HardFault, %function",
+    ".thumb_func",
+    "HardFault:",
+    "  mrs r0, msp",
+    "  ldr r1, ={top}",
+    "  msr msp, r1",
+    "  b {handler}",
+    top = sym _stack_start,
+    handler = sym crate::on_hard_fault,
+);
+
+/// In the HardFault handler: `Some(address)` if the fault was a data access to the guard (the
+/// stack overflowed), else `None`.
+pub fn guard_fault() -> Option<usize> {
+    // SAFETY: reads of the SCB's fault status and address registers (no side effect on
+    // read).
+    let (cfsr, mmfar) = unsafe {
+        let scb = &*cortex_m::peripheral::SCB::PTR;
+        (scb.cfsr.read(), scb.mmfar.read())
+    };
+    // MMFSR: MMARVALID (bit 7) with the faulting address; MSTKERR (bit 4) for a fault while
+    // stacking an exception frame (the stack pointer was in the guard).
+    let (start, end) = guard();
+    let at = mmfar as usize;
+    if cfsr & (1 << 7) != 0 && (start..end).contains(&at) {
+        Some(at)
+    } else if cfsr & (1 << 4) != 0 {
+        Some(end)
+    } else {
+        None
+    }
+}
+
+/// The line the HardFault handler prints, `sp` the faulting stack pointer: the stack overflow
+/// into the guard, or the faulting instruction's address (read from the exception frame at
+/// `sp`, which is in RAM when the fault was not the stack's).
+pub fn fault_report(sp: u32) {
+    match guard_fault() {
+        Some(at) => cortex_m_semihosting::hprintln!(
+            "stack overflow: the stack ran past its {} bytes into the guard at {:#x}",
+            room(),
+            at
+        ),
+        None => {
+            let (bottom, top) = stack_bounds();
+            let frame = sp as usize;
+            let pc = if frame >= bottom && frame + 32 <= top {
+                // SAFETY: a word of the exception frame the processor stacked at `sp`, inside
+                // the stack region (checked above).
+                unsafe { core::ptr::read_volatile((frame + 24) as *const u32) }
+            } else {
+                0
+            };
+            cortex_m_semihosting::hprintln!("hard fault at {:#x} (sp {:#x})", pc, sp)
+        }
+    }
 }
 
 /// The highest peak [`peak`] has measured (paint is lost each time the RAM is painted again).
 static HIGHEST: AtomicUsize = AtomicUsize::new(0);
 
-/// Paints the free RAM below the current frame (with a 256-byte margin for this function's
-/// own frame). Call it first thing in `main`, and again before a phase to measure its peak.
+/// Paints the free stack between its bottom and the current frame (with a 256-byte margin
+/// for this function's own frame and an interrupt's). Call it first thing in `main`, and
+/// again before a phase to measure its peak.
 #[inline(never)]
 pub fn paint() {
-    // SAFETY: the words between the end of the statics and 256 bytes below the stack pointer
-    // belong to nobody yet (no heap; the stack grows down from `_stack_start` and has not
-    // reached them); volatile writes, so the loop is not elided.
+    // SAFETY: the words between the stack's bottom and 256 bytes below the stack pointer
+    // belong to nobody yet (the stack grows down from `_stack_start` and has not reached
+    // them); volatile writes, so the loop is not elided.
     unsafe {
-        let low = addr(&__sheap);
+        let low = stack_bounds().0;
         let high = cortex_m::register::msp::read() as usize - 256;
         let mut p = low;
         while p < high {
@@ -67,11 +191,11 @@ pub fn highest() -> usize {
 }
 
 fn unpainted() -> usize {
-    // SAFETY: reads of the painted region between the statics and the stack top, which is
-    // RAM this firmware owns; volatile, as frames wrote it behind the compiler's back.
+    // SAFETY: reads of the stack region, RAM this firmware owns; volatile, as frames wrote it
+    // behind the compiler's back.
     unsafe {
-        let top = addr(&_stack_start);
-        let mut p = addr(&__sheap);
+        let (bottom, top) = stack_bounds();
+        let mut p = bottom;
         while p < top && core::ptr::read_volatile(p as *const u32) == PAINT {
             p += 4;
         }

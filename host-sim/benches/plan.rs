@@ -83,9 +83,11 @@ fn offset_spiral_prepared(c: &mut Criterion) {
         let planner = host_sim::plan(&slice).unwrap();
         let plan = planner.last_plan();
         let mut prepared = Box::new(OffsetSpiral::new());
-        prepared.prepare(&slice).unwrap();
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
+        prepared.prepare(&slice, &mut grid).unwrap();
         for (what, fresh) in [("fresh", true), ("prepared", false)] {
             let mut fresh_one = Box::new(OffsetSpiral::new());
+            let mut grid = Box::new(hollowpath::field::GridMemory::new());
             group.bench_function(format!("{name}/{what}/layer"), |b| {
                 b.iter(|| {
                     let work = if fresh {
@@ -95,7 +97,8 @@ fn offset_spiral_prepared(c: &mut Criterion) {
                         &mut prepared
                     };
                     let mut path: Vec<hollowpath::toolpath::Vertex> = Vec::new();
-                    work.build(black_box(&slice), plan, &mut path).unwrap();
+                    work.build(black_box(&slice), plan, &mut grid, &mut path)
+                        .unwrap();
                     black_box(path.len())
                 })
             });
@@ -109,7 +112,9 @@ fn offset_spiral_prepared(c: &mut Criterion) {
                     };
                     let mut first = FirstVertex(None);
                     // Refused at the second vertex: the build stops there.
-                    let stopped = work.build(black_box(&slice), plan, &mut first).is_err();
+                    let stopped = work
+                        .build(black_box(&slice), plan, &mut grid, &mut first)
+                        .is_err();
                     black_box((stopped, first.0.is_some()))
                 })
             });

@@ -1,6 +1,7 @@
 //! The layers of a print: zigzag and spiral alternating along the MCLs (or the raster
 //! baseline), each a path of vertices from the core's generators.
 
+use hollowpath::field::GridMemory;
 use hollowpath::toolpath::offset::OffsetSpiral;
 use hollowpath::toolpath::spiral::{spiral, ControlFunction};
 use hollowpath::toolpath::zigzag::zigzag;
@@ -70,7 +71,8 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
         }
         Fill::Offset => {
             let mut work = Box::new(OffsetSpiral::new());
-            let s = work.build(slice, plan, &mut path)?;
+            let mut grid = Box::new(GridMemory::new());
+            let s = work.build(slice, plan, &mut grid, &mut path)?;
             (
                 Pattern::Spiral,
                 format!(

@@ -39,6 +39,7 @@ use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::app::job::{self, Drive, LayerError, Printed};
 use hollowpath::app::steps::Stepping;
 use hollowpath::config::CHANNELS;
+use hollowpath::field::GridMemory;
 use hollowpath::motion::config::AXES;
 use hollowpath::motion::machine::Counters;
 use hollowpath::motion::{Board, Machine, PrinterConfig, Refused, State};
@@ -482,17 +483,20 @@ pub fn run_job_counted(
         ticks,
     } = VirtualPrinter::new(cfg)?;
     let mut offset = Box::new(OffsetSpiral::new());
+    let mut grid = Box::new(GridMemory::new());
     let mut steps = Box::new(Stepping::new(&mut board));
     steps.install(*machine);
     let mut drive = Clocked { steps, ticks };
     (0..layers)
         .map(|k| {
-            job::print_layer(slice, plan, &mut offset, k, &mut drive).map_err(|e| match e {
-                LayerError::Path(e) => SimError::Path(e),
-                LayerError::Refused(why) => SimError::Refused { index: k, why },
-                LayerError::Stopped(e) => e,
-                LayerError::Unfinished(s) => SimError::Unfinished(s),
-            })
+            job::print_layer(slice, plan, &mut offset, &mut grid, k, &mut drive).map_err(
+                |e| match e {
+                    LayerError::Path(e) => SimError::Path(e),
+                    LayerError::Refused(why) => SimError::Refused { index: k, why },
+                    LayerError::Stopped(e) => e,
+                    LayerError::Unfinished(s) => SimError::Unfinished(s),
+                },
+            )
         })
         .collect()
 }

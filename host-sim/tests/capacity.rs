@@ -1,7 +1,7 @@
 //! How full the core's fixed buffers get on the reference slices: a guard that the capacities
 //! in `config.rs` leave head-room (at least a quarter free) for slices like these.
 
-use hollowpath::config::{BOUNDARY_NODES, MAX_BISECTORS, MAX_HALVES, MAX_MCLS};
+use hollowpath::config::{BOUNDARY_NODES, HALF_POOL_POINTS, MAX_BISECTORS, MAX_HALVES, MAX_MCLS};
 use host_sim::{slice_file, REFERENCE_SLICES};
 
 #[test]
@@ -14,6 +14,11 @@ fn reference_slices_leave_head_room_in_every_buffer() {
         let rows = [
             ("boundary nodes", s.boundary_nodes as usize, BOUNDARY_NODES),
             ("traced halves", s.traced as usize, MAX_HALVES),
+            (
+                "points of the traced halves",
+                s.half_points as usize,
+                HALF_POOL_POINTS,
+            ),
             ("MCLs", plan.mcls.len(), MAX_MCLS),
             ("bisectors", plan.bisectors().len(), MAX_BISECTORS),
         ];
@@ -40,6 +45,7 @@ fn working_memory_sizes() {
             size_of::<hollowpath::keep_out::KeepOut<'static>>(),
         ),
         ("Half", size_of::<hollowpath::mcl::Half>()),
+        ("Halves", size_of::<hollowpath::mcl::Halves>()),
         ("Plan", size_of::<hollowpath::Plan>()),
         ("Field", size_of::<hollowpath::field::Field>()),
     ];

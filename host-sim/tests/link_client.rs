@@ -121,6 +121,7 @@ const FW: Version = Version {
 /// start "prints" its layers, reporting status and telemetry for each.
 fn controller(mut wire: End, stop: &AtomicBool) -> (u32, bool) {
     let mut ctrl = Box::new(Ctrl::new(CONFIG, FW));
+    let mut store = Box::new(hollowpath::slice::SliceStore::new());
     let t0 = Instant::now();
     let mut outbox: VecDeque<CtrlMsg> = VecDeque::new();
     let mut pending: Vec<u8> = Vec::new();
@@ -138,12 +139,12 @@ fn controller(mut wire: End, stop: &AtomicBool) -> (u32, bool) {
             rest = r;
             match event {
                 Some(Event::SliceReady) => {
-                    if let Ok(slice) = ctrl.finish_slice() {
+                    if let Ok(slice) = ctrl.finish_slice(&mut store) {
                         // Acknowledge (and accept) before planning stops the loop.
                         while let Some(f) = ctrl.transmit(now) {
                             wire.write_all(f).unwrap();
                         }
-                        let digest = host_sim::plan(&slice).map(|p| p.last_plan().digest());
+                        let digest = host_sim::plan(slice).map(|p| p.last_plan().digest());
                         match digest {
                             Ok(digest) => {
                                 outbox.push_back(CtrlMsg::Telemetry(Telemetry::Plan { digest }))

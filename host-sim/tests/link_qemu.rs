@@ -253,11 +253,18 @@ fn printing_on_the_firmware_reports_the_telemetry_simulate_computes() {
     let port = free_port();
     let q = Qemu::start(&elf, Serial::Tcp(port), Clock::JumpIdle);
     let (got, _, wall) = print_ok(&tcp(port), "2", &out);
+    // The firmware's RAM after a job of both layer kinds: its statics and the painted stack's
+    // peak (receiving, planning, preparing the spiral, printing, the interrupts).
+    let line = q
+        .wait_line(0, "job:", Duration::from_secs(10))
+        .unwrap_or_else(|| panic!("no job line from the firmware:\n{}", q.stdout()));
+    let (statics, stack) = ram_figures(&line);
     drop(q);
     println!(
-        "clean line: {wall:.1} s wall for 2 layers, {} frames retransmitted, upload {} bytes in {} messages",
+        "clean line: {wall:.1} s wall for 2 layers, {} frames retransmitted, upload {} bytes in {} messages; ram static {statics} stack {stack}",
         got["retransmitted"], got["upload_bytes"], got["upload_messages"]
     );
+    assert!(stack > 1024 && statics > 100 * 1024, "{line}");
     assert_same_telemetry(&got, &simulated("2"), 2);
 
     // A line that drops, corrupts or duplicates 1 % of the bytes each way: the same print,
@@ -358,6 +365,19 @@ fn job_line(line: &str) -> ([u64; 3], bool) {
     assert_eq!(&w[..2], ["job:", "steps"], "{line}");
     let n = |i: usize| w[i].parse::<u64>().unwrap();
     ([n(2), n(3), n(4)], w[7] == "true")
+}
+
+/// The RAM figures at the end of a job line (`... ram static S stack P`): (S, P).
+fn ram_figures(line: &str) -> (usize, usize) {
+    let w: Vec<&str> = line.split_whitespace().collect();
+    let n = w.len();
+    assert!(n >= 5, "{line}");
+    assert_eq!(
+        [w[n - 5], w[n - 4], w[n - 2]],
+        ["ram", "static", "stack"],
+        "{line}"
+    );
+    (w[n - 3].parse().unwrap(), w[n - 1].parse().unwrap())
 }
 
 /// The steps a stop report names in stderr (`motion stopped at steps x X y Y z Z`).

@@ -50,7 +50,8 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
         hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
         let mut offset = hollowpath::toolpath::DigestSink::new();
         let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
-        work.build(&slice, plan, &mut offset).unwrap();
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
+        work.build(&slice, plan, &mut grid, &mut offset).unwrap();
         for (k, sink) in [zigzag, offset].iter().enumerate() {
             let expect = format!(
                 "layer {name} {k} vertices {} digest {:016x}",
@@ -219,4 +220,39 @@ fn firmware_images_fit_the_boards_flash_and_keep_working_memory_out_of_it() {
             "{name}: a {flash}-byte image does not fit the SKR 2's {BOARD_FLASH} bytes of flash"
         );
     }
+}
+
+/// A stack that overflows is caught at once: the MPU guard below the stack (the stack is at the
+/// bottom of RAM, the statics above it: `firmware/memory.x`, `firmware/src/stack.rs`) faults
+/// on the first word written into it, and the HardFault handler, entered on a fresh stack,
+/// closes the valves and says so; QEMU exits with failure, and the static above the stack
+/// kept its value. The `stack_guard` firmware recurses until that happens.
+#[test]
+fn a_stack_overflow_is_caught_by_the_guard_and_reported() {
+    if !qemu::available("stack guard") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::firmware(Some("stack_guard"));
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
+        panic!(
+            "the overflow went unnoticed (QEMU still runs):\n{}",
+            q.stdout()
+        )
+    });
+    let out = q.stdout();
+    println!("{out}");
+    assert!(!status.success(), "the overflow ended in success:\n{out}");
+    let report = out
+        .lines()
+        .find(|l| l.starts_with("stack overflow: the stack ran past its "))
+        .unwrap_or_else(|| panic!("no overflow report in:\n{out}"));
+    // The fault is in the guard, below the stack's bottom (QEMU's RAM starts at 0x2000_0000).
+    let at = u32::from_str_radix(report.rsplit("0x").next().unwrap(), 16).unwrap();
+    assert!((0x1FFF_0000..0x2000_0000).contains(&at), "{report}");
+    assert!(
+        out.contains("sentinel 0x5afe5afe"),
+        "a static was overwritten:\n{out}"
+    );
 }

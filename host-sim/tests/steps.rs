@@ -106,8 +106,9 @@ fn print_interrupted(
             cost,
         };
         let mut offset = Box::new(OffsetSpiral::new());
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
         let printed: Vec<Printed> = (0..layers)
-            .map(|k| job::print_layer(slice, plan, &mut offset, k, &mut drive).unwrap())
+            .map(|k| job::print_layer(slice, plan, &mut offset, &mut grid, k, &mut drive).unwrap())
             .collect();
         assert_eq!(drive.steps.state(), Some(State::Ready));
         printed

@@ -7,7 +7,7 @@
 //! `(k + 1) x layer_height` ([`layer_z`]). The layer is never stored: [`Feed`] is its
 //! [`PathSink`], cuts each vertex pair into moves ([`split`]), the first vertex reached by a
 //! travel from wherever the nozzle is, and queues them for the step side
-//! ([`Stepping`](super::steps::Stepping)), whose interrupt tops the machine's look-ahead up
+//! ([`Stepping`]), whose interrupt tops the machine's look-ahead up
 //! from that queue at every alarm. When the queue is full the feed starts the step
 //! interrupt if the machine is at rest and asks its [`Drive`] to wait; at the end of the
 //! layer it waits until the machine is at rest. Every alarm of a layer therefore runs with
@@ -17,6 +17,7 @@
 //! ([`Printed::starved`]).
 
 use super::steps::Stepping;
+use crate::field::GridMemory;
 use crate::motion::machine::{Counters, Fault};
 use crate::motion::stepper::Ticks;
 use crate::motion::{Board, PrinterConfig, Refused, State};
@@ -27,18 +28,19 @@ use crate::toolpath::{PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
 /// Builds layer `index`'s path into `sink`: the zigzag on even layers, the offset spiral on
-/// odd ones.
+/// odd ones (its distance grid in `grid`, the planner's lent field memory on a controller).
 pub fn layer_path(
     slice: &Slice,
     plan: &Plan,
     offset: &mut OffsetSpiral,
+    grid: &mut GridMemory,
     index: usize,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
     if index % 2 == 0 {
         zigzag(slice, plan, sink).map(|_| ())
     } else {
-        offset.build(slice, plan, sink).map(|_| ())
+        offset.build(slice, plan, grid, sink).map(|_| ())
     }
 }
 
@@ -246,6 +248,7 @@ pub fn print_layer<D: Drive>(
     slice: &Slice,
     plan: &Plan,
     offset: &mut OffsetSpiral,
+    grid: &mut GridMemory,
     index: usize,
     drive: &mut D,
 ) -> Result<Printed, LayerError<D::Stop>> {
@@ -256,7 +259,7 @@ pub fn print_layer<D: Drive>(
         return Err(LayerError::Unfinished(State::Unhomed));
     };
     let mut feed = Feed::new(drive, z);
-    let built = layer_path(slice, plan, offset, index, &mut feed);
+    let built = layer_path(slice, plan, offset, grid, index, &mut feed);
     if feed.stop.is_none() {
         built.map_err(LayerError::Path)?;
     }

@@ -1,6 +1,6 @@
 //! The controller application: the link's
 //! [`Controller`](crate::link::controller::Controller) and the [`Machine`] in one state
-//! machine, generic over the printer's [`Board`] and the platform's [`Io`] (byte stream and
+//! machine, generic over the printer's [`Board`](crate::motion::Board) and the platform's [`Io`] (byte stream and
 //! clock, both injected).
 //!
 //! ```text
@@ -58,16 +58,15 @@ pub mod session;
 pub mod shared;
 pub mod steps;
 
-use heapless::Vec;
-
 use crate::link::controller::Event;
 use crate::link::error::LinkError;
 use crate::link::message::{CtrlMsg, LayerTelemetry, Phase, RemoteError, StopReport, Telemetry};
 use crate::motion::machine::Fault;
 use crate::motion::stepper::Ticks;
 use crate::motion::{Machine, State};
+use crate::plan::Planner;
+use crate::slice::SliceStore;
 use crate::toolpath::offset::OffsetSpiral;
-use crate::{Planner, Slice};
 
 pub use io::Io;
 use job::{Drive, LayerError};
@@ -88,10 +87,10 @@ const SERVE_US: u64 = 500;
 pub struct App<const HOLES: usize, const POINTS: usize, const W: usize> {
     planner: Planner,
     offset: OffsetSpiral,
-    /// The accepted slice, if any: a `Vec` of at most one rather than an `Option`, whose
-    /// `None` is a non-zero niche value (in `FeatureId`), which made the whole 500 KiB
-    /// `App::new()` a `.data` image in flash instead of zeroed `.bss`.
-    slice: Vec<Slice, 1>,
+    /// The accepted slice, if any, built in place by the link's assembler (a `Slice` moved
+    /// by value took a 21 KiB copy in every frame on its way). Empty storage is all zeros
+    /// (no `Option` niche), so the application is zeroed `.bss`, not a `.data` image.
+    slice: SliceStore,
     planned: bool,
 }
 
@@ -101,7 +100,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         App {
             planner: Planner::new(),
             offset: OffsetSpiral::new(),
-            slice: Vec::new(),
+            slice: SliceStore::new(),
             planned: false,
         }
     }
@@ -134,20 +133,19 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         match event {
             Event::SliceReady => {
                 self.planned = false;
-                self.slice.clear();
-                // A refusal was already reported to the host by the controller.
-                let slice = link.lock(|s| {
+                // Built in place in the application's static; a refusal was already
+                // reported to the host by the controller (and leaves the store empty).
+                let store = &mut self.slice;
+                link.lock(|s| {
                     s.report(Phase::Receiving, 0, 0, 0);
-                    let slice = s.ctrl.finish_slice();
-                    if slice.is_ok() {
+                    if s.ctrl.finish_slice(store).is_ok() {
                         s.report(Phase::Planning, 0, 0, 0);
                     }
                     s.flush(io);
-                    slice
                 });
-                if let Ok(slice) = slice {
+                if let Some(slice) = self.slice.get() {
                     // Seconds of work: the platform may serve the link meanwhile.
-                    let outcome = self.planner.plan(&slice).map(|plan| plan.digest());
+                    let outcome = self.planner.plan(slice).map(|plan| plan.digest());
                     self.planned = outcome.is_ok();
                     link.lock(|s| {
                         match outcome {
@@ -161,12 +159,8 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                         // 1 (where the nozzle would wait). A slice whose spiral cannot be
                         // prepared fails at its first spiral layer with that error (a
                         // one-layer job never needs it).
-                        let _spiral_ready = self.offset.prepare(&slice).is_ok();
-                    }
-                    // Empty since the slice arrived (cleared above), so the push cannot
-                    // fail; were it full, the new slice replaces the old.
-                    if let Err(slice) = self.slice.push(slice) {
-                        self.slice[0] = slice;
+                        let (_, grid) = self.planner.plan_and_grid();
+                        let _spiral_ready = self.offset.prepare(slice, grid).is_ok();
                     }
                 }
                 link.lock(|s| s.report(Phase::Idle, 0, 0, 0));
@@ -190,7 +184,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
         S: Steps,
     {
         let cfg = link.lock(|s| s.ctrl.printer().cloned());
-        let (Some(slice), true, Some(cfg)) = (self.slice.first(), self.planned, cfg) else {
+        let (Some(slice), true, Some(cfg)) = (self.slice.get(), self.planned, cfg) else {
             link.lock(|s| {
                 s.send(CtrlMsg::Error(RemoteError::Link(
                     LinkError::UnexpectedMessage,
@@ -222,7 +216,7 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
             _session: core::marker::PhantomData,
         };
         let mut result = job::home(&mut run);
-        let plan = self.planner.last_plan();
+        let (plan, grid) = self.planner.plan_and_grid();
         let mut layer = 0u16;
         while result.is_ok() && layer < layers {
             let percent = (layer as u32 * 100 / layers.max(1) as u32) as u8;
@@ -230,7 +224,14 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> App<HOLES, POINTS,
                 s.report(Phase::Printing, layer, layers, percent);
                 s.flush(run.io);
             });
-            match job::print_layer(slice, plan, &mut self.offset, layer as usize, &mut run) {
+            match job::print_layer(
+                slice,
+                plan,
+                &mut self.offset,
+                grid,
+                layer as usize,
+                &mut run,
+            ) {
                 Ok(p) => {
                     let t = LayerTelemetry::from_counters(layer, &p.counters, p.starved);
                     link.lock(|s| s.send(CtrlMsg::Telemetry(Telemetry::Layer(t))));

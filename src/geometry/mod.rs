@@ -5,6 +5,7 @@ mod grid;
 mod point;
 pub mod polygon;
 pub mod polyline;
+pub mod primitives;
 
 pub use grid::Grid;
 pub use point::Point;

@@ -1,6 +1,7 @@
 //! Closed polygons given as point slices (the closing edge implied).
 
-use super::polyline::closest_on_segment;
+use super::primitives::closest_on_segment;
+pub use super::primitives::{bbox, orient, segments_cross, segments_meet};
 use super::Point;
 
 /// Twice the signed area: positive for counter-clockwise.
@@ -61,43 +62,6 @@ pub fn closest(pts: &[Point], p: Point) -> (Point, f32, usize) {
     best
 }
 
-/// Orientation of `c` relative to the line `a -> b`: >0 left, <0 right.
-pub fn orient(a: Point, b: Point, c: Point) -> f32 {
-    (b - a).cross(c - a)
-}
-
-/// Whether the closed segments `ab` and `cd` share a point (crossing or touching).
-pub fn segments_meet(a: Point, b: Point, c: Point, d: Point) -> bool {
-    let d1 = orient(c, d, a);
-    let d2 = orient(c, d, b);
-    let d3 = orient(a, b, c);
-    let d4 = orient(a, b, d);
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
-        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
-    {
-        return true;
-    }
-    let on = |p: Point, q: Point, r: Point, o: f32| {
-        o == 0.0
-            && r.x >= p.x.min(q.x)
-            && r.x <= p.x.max(q.x)
-            && r.y >= p.y.min(q.y)
-            && r.y <= p.y.max(q.y)
-    };
-    on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
-}
-
-/// Whether the open segments `ab` and `cd` cross properly (each strictly separates the other's
-/// ends).
-pub fn segments_cross(a: Point, b: Point, c: Point, d: Point) -> bool {
-    let d1 = orient(c, d, a);
-    let d2 = orient(c, d, b);
-    let d3 = orient(a, b, c);
-    let d4 = orient(a, b, d);
-    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
-        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
-}
-
 /// The first pair of non-adjacent edges that meet, if any.
 pub fn self_intersection(pts: &[Point]) -> Option<(usize, usize)> {
     let n = pts.len();
@@ -138,19 +102,6 @@ pub fn boundaries_meet(p: &[Point], q: &[Point]) -> Option<(usize, usize)> {
         }
     }
     None
-}
-
-/// Bounding box (min, max).
-pub fn bbox(pts: &[Point]) -> (Point, Point) {
-    let mut lo = Point::new(f32::INFINITY, f32::INFINITY);
-    let mut hi = Point::new(f32::NEG_INFINITY, f32::NEG_INFINITY);
-    for p in pts {
-        lo.x = lo.x.min(p.x);
-        lo.y = lo.y.min(p.y);
-        hi.x = hi.x.max(p.x);
-        hi.y = hi.y.max(p.y);
-    }
-    (lo, hi)
 }
 
 /// Distance from `p` to a box, 0 inside: a lower bound of the distance to what the box holds.

@@ -1,18 +1,8 @@
 //! Open polylines given as point slices.
 
-use super::polygon::{orient, segments_meet};
+pub use super::primitives::closest_on_segment;
+use super::primitives::{orient, segments_meet};
 use super::Point;
-
-/// The closest point of segment `ab` to `p`, and its parameter in [0, 1].
-pub fn closest_on_segment(a: Point, b: Point, p: Point) -> (Point, f32) {
-    let ab = b - a;
-    let l2 = ab.norm2();
-    if l2 <= 0.0 {
-        return (a, 0.0);
-    }
-    let t = ((p - a).dot(ab) / l2).clamp(0.0, 1.0);
-    (a + ab * t, t)
-}
 
 /// Length of an open polyline.
 pub fn length(pts: &[Point]) -> f32 {
@@ -179,7 +169,7 @@ fn only_shared_end(a: Point, b: Point, c: Point, d: Point) -> bool {
 
 /// Bounding box of a polyline (min, max).
 pub fn bbox(pts: &[Point]) -> (Point, Point) {
-    super::polygon::bbox(pts)
+    super::primitives::bbox(pts)
 }
 
 /// Whether two boxes overlap (with a margin).

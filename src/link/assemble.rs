@@ -8,7 +8,7 @@ use super::message::ContourChunk;
 use crate::config::{MAX_HOLES, MAX_VERTICES};
 use crate::error::{Error, FeatureId};
 use crate::geometry::Point;
-use crate::slice::{Material, Settings, Slice};
+use crate::slice::{Material, Settings, Slice, SliceStore};
 
 /// The assembler of the default capacities: [`MAX_HOLES`] holes and room for every
 /// polygon at [`MAX_VERTICES`] (18 KiB of points in the MCU build).
@@ -235,6 +235,24 @@ impl<const HOLES: usize, const POINTS: usize> SliceAssembler<HOLES, POINTS> {
     /// [`MAX_VERTICES`] simplified within its `simplify_tolerance`); `None` unless a whole
     /// slice arrived ([`end`](Self::end) returned `Ok(true)`).
     pub fn build(&self) -> Option<Result<Slice, Error>> {
+        self.with_contours(Slice::from_contours)
+    }
+
+    /// [`build`](Self::build) into `out` ([`SliceStore::build_from_contours`]), with no
+    /// slice-sized temporary: how a controller takes the slice.
+    pub fn build_into<'s>(&self, out: &'s mut SliceStore) -> Option<Result<&'s Slice, Error>> {
+        out.clear();
+        self.with_contours(|wall, material, holes, settings| {
+            out.build_from_contours(wall, material, holes, settings)
+        })
+    }
+
+    /// Calls `f` with the received contours (the wall, its material, the holes with theirs)
+    /// and settings; `None` unless a whole slice arrived.
+    fn with_contours<R>(
+        &self,
+        f: impl FnOnce(&[Point], Material, &[(&[Point], Material)], Settings) -> Result<R, Error>,
+    ) -> Option<Result<R, Error>> {
         if !self.complete {
             return None;
         }
@@ -249,11 +267,6 @@ impl<const HOLES: usize, const POINTS: usize> SliceAssembler<HOLES, POINTS> {
                 }));
             }
         }
-        Some(Slice::from_contours(
-            pts(&wall),
-            wall.material,
-            &holes,
-            settings,
-        ))
+        Some(f(pts(&wall), wall.material, &holes, settings))
     }
 }

@@ -12,7 +12,7 @@ use super::message::{
 };
 use crate::config::{CHANNELS, MAX_HOLES, MAX_VERTICES};
 use crate::motion::config::PrinterConfig;
-use crate::slice::Slice;
+use crate::slice::{Slice, SliceStore};
 
 // The capacities go out as `u16` holes and `u32` vertices: HOLES <= MAX_HOLES and POINTS <=
 // u32::MAX are asserted by the assembler; a slice stores at most this many vertices.
@@ -57,7 +57,7 @@ pub enum Event {
 ///         let stalled = event.is_none() && rest.len() == bytes.len();
 ///         bytes = rest;
 ///         match event {
-///             Some(Event::SliceReady) => if let Ok(slice) = ctrl.finish_slice() { plan(slice) },
+///             Some(Event::SliceReady) => if let Ok(slice) = ctrl.finish_slice(&mut store) { plan(slice) },
 ///             Some(Event::Start) => start(),
 ///             ...
 ///         }
@@ -298,41 +298,44 @@ impl<const HOLES: usize, const POINTS: usize, const W: usize> Controller<HOLES, 
             .map_err(|_| LinkError::MessageDecode)
     }
 
-    /// Builds and validates the slice after [`Event::SliceReady`] (and checks it against the
-    /// printer, if one was configured). The outcome is reported to the host
-    /// ([`CtrlMsg::SliceAccepted`] or the error); only an accepted slice may be started.
-    pub fn finish_slice(&mut self) -> Result<Slice, RemoteError> {
+    /// Builds and validates the slice after [`Event::SliceReady`] into `out` (and checks it
+    /// against the printer, if one was configured). The outcome is reported to the host
+    /// ([`CtrlMsg::SliceAccepted`] or the error); only an accepted slice may be started. On
+    /// error `out` holds no slice.
+    pub fn finish_slice<'s>(&mut self, out: &'s mut SliceStore) -> Result<&'s Slice, RemoteError> {
         self.slice_pending = false;
-        let result = match self.assembler.build() {
+        let built = match self.assembler.build_into(out) {
             None => Err(RemoteError::Link(LinkError::UnexpectedMessage)),
             Some(Err(e)) => Err(RemoteError::Slice(e)),
-            Some(Ok(slice)) => match self.printer.as_ref().map(|p| p.check_slice(&slice)) {
+            Some(Ok(slice)) => match self.printer.as_ref().map(|p| p.check_slice(slice)) {
                 Some(Err(e)) => Err(RemoteError::Printer(e.into())),
-                _ => Ok(slice),
+                _ => {
+                    let vertices = slice.wall().points().len()
+                        + slice
+                            .holes()
+                            .iter()
+                            .map(|h| h.points().len())
+                            .sum::<usize>();
+                    // At most MAX_HOLES (<= 64) holes, (MAX_HOLES + 1) * MAX_VERTICES
+                    // vertices (asserted above).
+                    Ok((slice.holes().len() as u8, vertices as u32))
+                }
             },
         };
-        match &result {
-            Ok(slice) => {
-                let vertices = slice.wall().points().len()
-                    + slice
-                        .holes()
-                        .iter()
-                        .map(|h| h.points().len())
-                        .sum::<usize>();
+        match built {
+            Ok((holes, vertices)) => {
                 self.accepted = true;
-                self.reply(CtrlMsg::SliceAccepted {
-                    // At most MAX_HOLES (<= 64) holes, (MAX_HOLES + 1) * MAX_VERTICES vertices
-                    // (asserted above).
-                    holes: slice.holes().len() as u8,
-                    vertices: vertices as u32,
-                });
+                self.reply(CtrlMsg::SliceAccepted { holes, vertices });
+                out.get()
+                    .ok_or(RemoteError::Link(LinkError::UnexpectedMessage))
             }
             Err(e) => {
+                out.clear();
                 self.accepted = false;
-                self.reply(CtrlMsg::Error(*e));
+                self.reply(CtrlMsg::Error(e));
+                Err(e)
             }
         }
-        result
     }
 
     /// Runs the timers; returns when to call again at the latest.

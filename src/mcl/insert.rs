@@ -15,9 +15,9 @@ use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, TRACE_POINTS};
 use crate::field::Field;
 use crate::geometry::{polygon, polyline, Point};
 use crate::keep_out::{KeepOut, Side};
-use crate::mcl::{Half, HalfEnd};
-use crate::plan::PlanStats;
+use crate::mcl::{Half, HalfEnd, Halves};
 use crate::slice::Nearest;
+use crate::stats::PlanStats;
 use crate::{Error, FeatureId, Limit, Slice};
 
 /// Largest distance between the far ends of neighbouring halves, in road widths.
@@ -37,7 +37,7 @@ const MIN_START_GAP_PER_MIN_WIDTH: f32 = 0.9;
 pub fn insert(
     slice: &Slice,
     field: &Field,
-    halves: &mut Vec<Half, MAX_HALVES>,
+    halves: &mut Halves,
     scratch: &mut Vec<Point, TRACE_POINTS>,
     stats: &mut PlanStats,
 ) -> Result<(), Error> {
@@ -67,10 +67,10 @@ pub fn insert(
             for k in 0..order.len() {
                 let (sa, ea) = (
                     halves[order[k] as usize].s,
-                    halves[order[k] as usize].end_point(),
+                    halves.end_point(order[k] as usize),
                 );
                 let next = order[(k + 1) % order.len()] as usize;
-                let (sb, eb) = (halves[next].s, halves[next].end_point());
+                let (sb, eb) = (halves[next].s, halves.end_point(next));
                 let mut gap_s = sb - sa;
                 if gap_s <= 0.0 {
                     gap_s += hole.length();
@@ -103,7 +103,7 @@ pub fn insert(
             if ia == ib || !halves[ia].alive || !halves[ib].alive {
                 continue;
             }
-            if polyline::polylines_cross(&halves[ia].points, &halves[ib].points) {
+            if polyline::polylines_cross(halves.points(ia), halves.points(ib)) {
                 let drop = if halves[ia].depth >= halves[ib].depth {
                     ia
                 } else {
@@ -114,15 +114,15 @@ pub fn insert(
             }
         }
     }
-    halves.retain(|h| h.alive);
+    // The pool at its fullest: later phases only reshape or drop halves. At most
+    // HALF_POOL_POINTS (asserted in `mcl` to fit a u32).
+    stats.half_points = halves.pool_len() as u32;
+    halves.retain_alive();
     Ok(())
 }
 
 /// Indices of the halves of hole `i`, sorted by their start parameter.
-pub fn sorted_halves(
-    halves: &Vec<Half, MAX_HALVES>,
-    i: usize,
-) -> Result<Vec<u16, MAX_HALVES>, Error> {
+pub fn sorted_halves(halves: &[Half], i: usize) -> Result<Vec<u16, MAX_HALVES>, Error> {
     let mut order: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         if h.hole as usize == i && h.alive {
@@ -161,7 +161,7 @@ fn trace_half(
     hole: &KeepOut<'_>,
     s: f32,
     depth: u8,
-    halves: &mut Vec<Half, MAX_HALVES>,
+    halves: &mut Halves,
     scratch: &mut Vec<Point, TRACE_POINTS>,
     stats: &mut PlanStats,
 ) -> Result<bool, Error> {
@@ -200,16 +200,14 @@ fn trace_half(
         s,
         start_normal: normal,
         end,
-        points,
         partner: None,
         on_bisector: None,
         depth,
         alive: true,
+        at: 0,
+        len: 0,
     };
-    halves.push(new).map_err(|_| Error::Capacity {
-        limit: Limit::Halves,
-        feature: Some(FeatureId::Hole(i as u8)),
-    })?;
+    halves.push(new, &points)?;
     stats.traced += 1;
     Ok(true)
 }

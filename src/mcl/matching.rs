@@ -23,8 +23,8 @@ use crate::cells::{away_from_hole, onto_bisector, Cells};
 use crate::config::{HALF_POINTS, MAX_HALVES, MCL_POINTS};
 use crate::error::{Error, Limit};
 use crate::geometry::{polyline, Point};
-use crate::mcl::{Half, HalfEnd};
-use crate::plan::PlanStats;
+use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
+use crate::stats::PlanStats;
 use crate::Slice;
 
 /// How far (mm) a half's end may lie from the traced bisector and still count as on it.
@@ -65,16 +65,17 @@ struct Match {
 pub fn match_all(
     slice: &Slice,
     cells: &Cells,
-    halves: &mut Vec<Half, MAX_HALVES>,
+    halves: &mut Halves,
     stats: &mut PlanStats,
 ) -> Result<(), Error> {
     let settings = *slice.settings();
     // Put every bisector end on its bisector piece.
-    for h in halves.iter_mut() {
+    for x in 0..halves.len() {
+        let e = halves.end_point(x);
+        let h = &mut halves[x];
         h.partner = None;
         h.on_bisector = None;
         if let HalfEnd::Bisector(j) = h.end {
-            let e = h.end_point();
             let best = cells
                 .between(h.hole as usize, j as usize)
                 .map(|(k, b)| {
@@ -103,7 +104,7 @@ pub fn match_all(
             if bk as usize != k || !h.alive {
                 continue;
             }
-            let p = h.end_point();
+            let p = halves.end_point(idx);
             let (na, _) = away_from_hole(slice, bis.a as usize, p);
             let (nb, _) = away_from_hole(slice, bis.b as usize, p);
             let side_a = h.hole == bis.a;
@@ -111,7 +112,7 @@ pub fn match_all(
             let f = objective(
                 normal,
                 h.start_normal,
-                p.dist(h.start()),
+                p.dist(halves.start(idx)),
                 settings.w_n,
                 settings.w_d,
             );
@@ -219,21 +220,21 @@ pub fn match_all(
 
 /// Rebuilds halves `x` and `y` to meet at `pstar`, unless that makes them cross a finished
 /// MCL (a wall half or a matched half); on success they become partners.
-fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point) -> bool {
-    let mut hx = halves[x].clone();
-    let mut hy = halves[y].clone();
-    hx.reshape_end(pstar);
-    hy.reshape_end(pstar);
-    let holes = [hx.hole, hy.hole];
-    if crosses_finished(halves, &hx.points, &[x, y], &holes)
-        || crosses_finished(halves, &hy.points, &[x, y], &holes)
+fn try_join(halves: &mut Halves, x: usize, y: usize, pstar: Point) -> bool {
+    let mut px = halves.points_copy(x);
+    let mut py = halves.points_copy(y);
+    reshape_end(&mut px, pstar);
+    reshape_end(&mut py, pstar);
+    let holes = [halves[x].hole, halves[y].hole];
+    if crosses_finished(halves, &px, &[x, y], &holes)
+        || crosses_finished(halves, &py, &[x, y], &holes)
     {
         return false;
     }
-    hx.partner = Some(y as u16);
-    hy.partner = Some(x as u16);
-    halves[x] = hx;
-    halves[y] = hy;
+    halves[x].partner = Some(y as u16);
+    halves[y].partner = Some(x as u16);
+    halves.set_points(x, &px);
+    halves.set_points(y, &py);
     true
 }
 
@@ -242,19 +243,25 @@ fn try_join(halves: &mut Vec<Half, MAX_HALVES>, x: usize, y: usize, pstar: Point
 /// Only halves of the holes in `holes` are looked at: a half stays in its own cell, so it can
 /// only meet halves of its own hole or of the hole across the bisector it ends on.
 pub(crate) fn crosses_finished(
-    halves: &[Half],
+    halves: &Halves,
     pts: &[Point],
     skip: &[usize],
     holes: &[u8],
 ) -> bool {
-    crosses_finished_boxed(halves, |_, h| polyline::bbox(&h.points), pts, skip, holes)
+    crosses_finished_boxed(
+        halves,
+        |k, _| polyline::bbox(halves.points(k)),
+        pts,
+        skip,
+        holes,
+    )
 }
 
 /// [`crosses_finished`] with each half's bounding box from `box_of` (the half's index and
 /// the half): a caller that checks many moves keeps the boxes instead of measuring every half
 /// again for each.
 pub(crate) fn crosses_finished_boxed(
-    halves: &[Half],
+    halves: &Halves,
     box_of: impl Fn(usize, &Half) -> (Point, Point),
     pts: &[Point],
     skip: &[usize],
@@ -267,13 +274,13 @@ pub(crate) fn crosses_finished_boxed(
             && !skip.contains(&k)
             && (h.end == HalfEnd::Wall || h.partner.is_some())
             && polyline::boxes_overlap(bb, box_of(k, h), 1e-4)
-            && polyline::polylines_cross(pts, &h.points)
+            && polyline::polylines_cross(pts, halves.points_of(h))
     })
 }
 
 /// Points of a finished MCL made of halves `first` and (optionally) `second`.
 pub(crate) fn joined_points(
-    halves: &[Half],
+    halves: &Halves,
     first: usize,
     second: Option<usize>,
 ) -> Vec<Point, MCL_POINTS> {
@@ -281,9 +288,9 @@ pub(crate) fn joined_points(
     // `extend`, which would panic on overflow, cannot).
     const _: () = assert!(2 * HALF_POINTS - 1 <= MCL_POINTS);
     let mut out: Vec<Point, MCL_POINTS> = Vec::new();
-    out.extend(halves[first].points.iter().copied());
+    out.extend(halves.points(first).iter().copied());
     if let Some(s) = second {
-        out.extend(halves[s].points.iter().rev().skip(1).copied());
+        out.extend(halves.points(s).iter().rev().skip(1).copied());
     }
     out
 }

@@ -17,12 +17,12 @@ use crate::error::{Error, Limit};
 use crate::geometry::{polygon, polyline, Point};
 use crate::mcl::insert::sorted_halves;
 use crate::mcl::matching::crosses_finished_boxed;
-use crate::mcl::{Half, HalfEnd};
-use crate::plan::PlanStats;
+use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
+use crate::stats::PlanStats;
 use crate::Slice;
 
 /// One end: the half that carries it (the lower index of a pair).
-fn ends(halves: &Vec<Half, MAX_HALVES>) -> Result<Vec<u16, MAX_HALVES>, Error> {
+fn ends(halves: &[Half]) -> Result<Vec<u16, MAX_HALVES>, Error> {
     let mut out: Vec<u16, MAX_HALVES> = Vec::new();
     for (k, h) in halves.iter().enumerate() {
         let carrier = match h.partner {
@@ -38,10 +38,7 @@ fn ends(halves: &Vec<Half, MAX_HALVES>) -> Result<Vec<u16, MAX_HALVES>, Error> {
 }
 
 /// For every half, the halves before and after it around its hole (by start parameter).
-fn ring_neighbours(
-    halves: &Vec<Half, MAX_HALVES>,
-    holes: usize,
-) -> Result<Vec<(u16, u16), MAX_HALVES>, Error> {
+fn ring_neighbours(halves: &[Half], holes: usize) -> Result<Vec<(u16, u16), MAX_HALVES>, Error> {
     let mut out: Vec<(u16, u16), MAX_HALVES> = Vec::new();
     // Never full: `halves` has the same capacity.
     out.resize(halves.len(), (0, 0))
@@ -60,7 +57,7 @@ fn ring_neighbours(
 pub fn relax(
     slice: &Slice,
     cells: &Cells,
-    halves: &mut Vec<Half, MAX_HALVES>,
+    halves: &mut Halves,
     stats: &mut PlanStats,
 ) -> Result<(), Error> {
     let settings = *slice.settings();
@@ -69,10 +66,10 @@ pub fn relax(
     // Every half's bounding box, kept up to date as ends move: each move is checked against
     // the halves around it, and measuring all of them again for each was most of the work.
     let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
-    for h in halves.iter() {
+    for k in 0..halves.len() {
         // Never full: one box per half, and `halves` has the same capacity.
         boxes
-            .push(polyline::bbox(&h.points))
+            .push(polyline::bbox(halves.points(k)))
             .map_err(|_| Limit::Halves.error())?;
     }
     for _ in 0..settings.relax_iterations {
@@ -102,10 +99,10 @@ pub fn relax(
         let list = ends(halves)?;
         let mut worst: Option<(usize, usize)> = None;
         for &e in list.iter() {
-            let here = halves[e as usize].end_point();
+            let here = halves.end_point(e as usize);
             let crowd = list
                 .iter()
-                .filter(|&&o| o != e && halves[o as usize].end_point().dist(here) < spacing - 1e-4)
+                .filter(|&&o| o != e && halves.end_point(o as usize).dist(here) < spacing - 1e-4)
                 .count();
             if crowd > 0 && worst.is_none_or(|w| crowd > w.1) {
                 worst = Some((e as usize, crowd));
@@ -124,8 +121,8 @@ pub fn relax(
 /// The relaxation step of end `e`: towards the middle of its neighbours around the hole(s) it
 /// joins (smoothing), and away from every end nearer than `spacing` (repulsion), at most half
 /// the spacing long.
-fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spacing: f32) -> Point {
-    let here = halves[e].end_point();
+fn relax_step(halves: &Halves, ring: &[(u16, u16)], list: &[u16], e: usize, spacing: f32) -> Point {
+    let here = halves.end_point(e);
     let mut pull = Point::default();
     for k in [Some(e), halves[e].partner.map(|p| p as usize)]
         .into_iter()
@@ -133,8 +130,8 @@ fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spac
     {
         let (prev, next) = ring[k];
         let (prev, next) = (
-            halves[prev as usize].end_point(),
-            halves[next as usize].end_point(),
+            halves.end_point(prev as usize),
+            halves.end_point(next as usize),
         );
         pull = pull + ((prev - here) + (next - here)) * 0.25;
     }
@@ -144,10 +141,10 @@ fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spac
         if o == e {
             continue;
         }
-        let d = here.dist(halves[o].end_point());
+        let d = here.dist(halves.end_point(o));
         if d < spacing {
             let away = if d > 1e-6 {
-                (here - halves[o].end_point()) * (1.0 / d)
+                (here - halves.end_point(o)) * (1.0 / d)
             } else {
                 // Coincident ends: push along the order of their starts.
                 Point::new(if e < o { -1.0 } else { 1.0 }, 0.0)
@@ -171,13 +168,13 @@ fn relax_step(halves: &[Half], ring: &[(u16, u16)], list: &[u16], e: usize, spac
 fn try_move(
     slice: &Slice,
     cells: &Cells,
-    halves: &mut Vec<Half, MAX_HALVES>,
+    halves: &mut Halves,
     boxes: &mut [(Point, Point)],
     e: usize,
     push: Point,
 ) -> bool {
     let half = 0.5 * slice.settings().road_width;
-    let here = halves[e].end_point();
+    let here = halves.end_point(e);
     let hole = halves[e].hole as usize;
     let (target, new_u) = match (halves[e].partner, halves[e].on_bisector) {
         (Some(_), Some((k, u))) => {
@@ -219,33 +216,36 @@ fn try_move(
     if target.dist(here) < 1e-5 || !slice.is_printable(target, 1e-3) || leaves_cell {
         return false;
     }
-    let mut a = halves[e].clone();
-    a.reshape_end(target);
+    let mut a = halves.points_copy(e);
+    reshape_end(&mut a, target);
     let mut b = partner.map(|p| {
-        let mut b = halves[p].clone();
-        b.reshape_end(target);
+        let mut b = halves.points_copy(p);
+        reshape_end(&mut b, target);
         b
     });
     let skip = [e, partner.unwrap_or(e)];
-    let holes = [a.hole, b.as_ref().map_or(a.hole, |b| b.hole)];
+    let holes = [
+        halves[e].hole,
+        partner.map_or(halves[e].hole, |p| halves[p].hole),
+    ];
     let box_of = |k: usize, _: &Half| boxes[k];
-    if crosses_finished_boxed(halves, box_of, &a.points, &skip, &holes)
+    if crosses_finished_boxed(halves, box_of, &a, &skip, &holes)
         || b.as_ref()
-            .is_some_and(|b| crosses_finished_boxed(halves, box_of, &b.points, &skip, &holes))
+            .is_some_and(|b| crosses_finished_boxed(halves, box_of, b, &skip, &holes))
     {
         return false;
     }
     if let Some(nu) = new_u {
-        a.on_bisector = Some(nu);
-        if let Some(b) = b.as_mut() {
-            b.on_bisector = Some(nu);
+        halves[e].on_bisector = Some(nu);
+        if let Some(p) = partner {
+            halves[p].on_bisector = Some(nu);
         }
     }
-    boxes[e] = polyline::bbox(&a.points);
-    halves[e] = a;
-    if let (Some(p), Some(b)) = (partner, b) {
-        boxes[p] = polyline::bbox(&b.points);
-        halves[p] = b;
+    boxes[e] = polyline::bbox(&a);
+    halves.set_points(e, &a);
+    if let (Some(p), Some(b)) = (partner, b.as_mut()) {
+        boxes[p] = polyline::bbox(b);
+        halves.set_points(p, b);
     }
     true
 }

@@ -83,7 +83,7 @@ fn spokes(
             continue;
         };
         let half = &plan.halves[h as usize];
-        let len = polyline::length(&half.points);
+        let len = polyline::length(plan.halves.points(h as usize));
         let usable = if half.end == HalfEnd::Wall {
             len
         } else {
@@ -187,8 +187,7 @@ pub fn spiral(
                     }
                 }
             };
-            let half = &plan.halves[s.half as usize];
-            let p = polyline::point_at(&half.points, t);
+            let p = polyline::point_at(plan.halves.points(s.half as usize), t);
             let (ma, mb) = mcl_end_materials(slice, plan, s.mcl as usize);
             let full = polyline::length(&plan.points(&plan.mcls[s.mcl as usize]));
             let at_full = if s.first { t } else { full - t };
@@ -212,7 +211,7 @@ pub fn spiral(
             let m = &plan.mcls[s.mcl as usize];
             let other = if s.first { m.second } else { Some(m.first) };
             if let Some(o) = other {
-                let pts = &plan.halves[o as usize].points;
+                let pts = plan.halves.points(o as usize);
                 let (ma, mb) = mcl_end_materials(slice, plan, s.mcl as usize);
                 let full = polyline::length(&plan.points(m));
                 let mut cum = [0.0f32; crate::config::HALF_POINTS];

@@ -23,7 +23,8 @@
 //! timers run when the host's next byte (its keep-alive) wakes it, so an idle firmware does
 //! not race through emulated time sending retransmissions. The printer's pins are counted
 //! in memory (`link_board`). Semihosting prints one line at start and one per job (with how
-//! late the step interrupt ran its alarms at worst); the UART carries nothing but the link.
+//! late the step interrupt ran its alarms at worst, and the RAM: the statics and the painted
+//! stack's peak since start, interrupts included); the UART carries nothing but the link.
 #![no_std]
 #![no_main]
 
@@ -33,7 +34,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use critical_section::Mutex;
 
 use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m_rt::{entry, exception, ExceptionFrame};
+use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use hollowpath::app::io::ticks_at;
 use hollowpath::app::{App, Io, Session, Shared, Stepping, Steps};
@@ -48,6 +49,8 @@ use static_cell::ConstStaticCell;
 mod link_board;
 #[path = "../mps2.rs"]
 mod mps2;
+#[path = "../stack.rs"]
+mod stack;
 
 /// The UART's baud rate (QEMU moves bytes as fast as the host takes them; the divider only
 /// has to be valid).
@@ -267,9 +270,15 @@ impl Io for Mps2 {
 
 #[entry]
 fn main() -> ! {
+    // Before any interrupt is enabled (painting runs below the stack pointer, where an
+    // interrupt's frame would go).
+    stack::paint();
     let Some(mut cp) = cortex_m::Peripherals::take() else {
         fail("peripherals");
     };
+    if !stack::install_guard(&mut cp.MPU) {
+        fail("stack guard: not aligned to its size");
+    }
     cp.SYST.set_clock_source(SystClkSource::Core);
     cp.SYST.set_reload(RELOAD);
     cp.SYST.clear_current();
@@ -292,14 +301,19 @@ fn main() -> ! {
             if n != jobs {
                 jobs = n;
                 hprintln!(
-                    "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late",
+                    "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late, ram static {} stack {}",
                     c.steps[0],
                     c.steps[1],
                     c.steps[2],
                     link_board::valves_shut(),
                     io.now_us(),
-                    LATEST.load(Ordering::Relaxed)
+                    LATEST.load(Ordering::Relaxed),
+                    stack::statics(),
+                    stack::highest()
                 );
+                if stack::highest() >= stack::room() {
+                    fail("stack: no paint left, the stack reached the statics");
+                }
             }
         }
         io.sleep(None);
@@ -314,11 +328,12 @@ fn fail(what: &str) -> ! {
     loop {}
 }
 
-#[exception]
-unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    // Valves first.
+/// The HardFault handler, entered through `stack.rs`'s entry on a fresh stack (`sp` the
+/// faulting one): the valves first, then what happened (a stack overflow or the faulting
+/// address), and QEMU exits with failure.
+extern "C" fn on_hard_fault(sp: u32) -> ! {
     link_board::shut_valves();
-    hprintln!("hard fault at {:#x}", frame.pc());
+    stack::fault_report(sp);
     debug::exit(debug::EXIT_FAILURE);
     #[allow(clippy::empty_loop)]
     loop {}

@@ -1,0 +1,66 @@
+//! The primitives polygons and polylines share: segments (orientation, meeting, crossing,
+//! the closest point) and the bounding box of a point set. Both `polygon` and `polyline` are
+//! built on this module, and neither on the other.
+
+use super::Point;
+
+/// The closest point of segment `ab` to `p`, and its parameter in [0, 1].
+pub fn closest_on_segment(a: Point, b: Point, p: Point) -> (Point, f32) {
+    let ab = b - a;
+    let l2 = ab.norm2();
+    if l2 <= 0.0 {
+        return (a, 0.0);
+    }
+    let t = ((p - a).dot(ab) / l2).clamp(0.0, 1.0);
+    (a + ab * t, t)
+}
+
+/// Orientation of `c` relative to the line `a -> b`: >0 left, <0 right.
+pub fn orient(a: Point, b: Point, c: Point) -> f32 {
+    (b - a).cross(c - a)
+}
+
+/// Whether the closed segments `ab` and `cd` share a point (crossing or touching).
+pub fn segments_meet(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let d1 = orient(c, d, a);
+    let d2 = orient(c, d, b);
+    let d3 = orient(a, b, c);
+    let d4 = orient(a, b, d);
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return true;
+    }
+    let on = |p: Point, q: Point, r: Point, o: f32| {
+        o == 0.0
+            && r.x >= p.x.min(q.x)
+            && r.x <= p.x.max(q.x)
+            && r.y >= p.y.min(q.y)
+            && r.y <= p.y.max(q.y)
+    };
+    on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
+}
+
+/// Whether the open segments `ab` and `cd` cross properly (each strictly separates the other's
+/// ends).
+pub fn segments_cross(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let d1 = orient(c, d, a);
+    let d2 = orient(c, d, b);
+    let d3 = orient(a, b, c);
+    let d4 = orient(a, b, d);
+    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+}
+
+/// Bounding box (min, max).
+pub fn bbox(pts: &[Point]) -> (Point, Point) {
+    let mut lo = Point::new(f32::INFINITY, f32::INFINITY);
+    let mut hi = Point::new(f32::NEG_INFINITY, f32::NEG_INFINITY);
+    for p in pts {
+        lo.x = lo.x.min(p.x);
+        lo.y = lo.y.min(p.y);
+        hi.x = hi.x.max(p.x);
+        hi.y = hi.y.max(p.y);
+    }
+    (lo, hi)
+}

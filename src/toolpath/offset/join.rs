@@ -1,0 +1,250 @@
+//! Joining the loops into one road: the sites where two loops run side by side (where a
+//! bridge can be cut), a spanning tree of them from the outermost loop, and the relaxed
+//! joins for loops the strict search leaves alone.
+
+use super::*;
+
+impl OffsetSpiral {
+    /// A place where loop `a` (one level above) runs a road width from loop `b` for long
+    /// enough to bridge, clear of the other joins on both. `relaxed` is the second try for a
+    /// loop no strict site reaches (small loops at a peak of `D`, where the turns below are
+    /// not parallel to it): it checks only the gap, with a looser tolerance.
+    pub(super) fn find_site(
+        &self,
+        slice: &Slice,
+        a: usize,
+        b: usize,
+        relaxed: bool,
+    ) -> Option<Site> {
+        let w = slice.settings().road_width;
+        let len = self.loops[a].length;
+        let lenb = self.loops[b].length;
+        let steps = libm::floorf(len / (0.25 * w)) as usize;
+        for (g, k) in self
+            .gaps()
+            .iter()
+            .flat_map(|&g| (0..steps).map(move |k| (g, k)))
+        {
+            let s0 = k as f32 * 0.25 * w;
+            let (a1, a2) = (s0, wrap(s0 + g * w, len));
+            if !self.free(a, a1, a2, 0.5 * w) {
+                continue;
+            }
+            // The gap and half a road either side must face `b` a road width away.
+            let mut prev: Option<f32> = None;
+            let mut ok = true;
+            let mut ends = (0.0, 0.0);
+            let (offsets, tol) = if relaxed {
+                ([f32::NAN, 0.0, 0.5 * g, g, f32::NAN], RELAXED_TOL)
+            } else {
+                ([-0.5f32, 0.0, 0.5 * g, g, g + 0.5], STRICT_TOL)
+            };
+            for (m, off) in offsets.iter().enumerate() {
+                if off.is_nan() {
+                    continue;
+                }
+                let p = self.at(a, s0 + off * w);
+                match self.below(slice, a, p, tol) {
+                    Some((m2, t)) if m2 == b => {
+                        if let Some(pt) = prev {
+                            let step = wrap(t - pt, lenb);
+                            if !(0.1 * w..1.5 * w).contains(&step) {
+                                ok = false;
+                                break;
+                            }
+                        }
+                        prev = Some(t);
+                        if m == 1 {
+                            ends.0 = t;
+                        } else if m == 3 {
+                            ends.1 = t;
+                        }
+                    }
+                    _ => {
+                        ok = false;
+                        break;
+                    }
+                }
+            }
+            if ok && self.free(b, ends.0, ends.1, 0.5 * w) {
+                return Some(Site {
+                    a: a as u16,
+                    a1,
+                    a2,
+                    b: b as u16,
+                    b1: ends.0,
+                    b2: ends.1,
+                });
+            }
+        }
+        None
+    }
+
+    /// Joins the loops along a spanning tree of their side-by-side adjacency, breadth first
+    /// from the wall's first turn.
+    pub(super) fn join(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
+        // Full-road gaps take more room on a loop than half-road ones: where they leave a
+        // loop no room for its join (another extrusion start), the joins are made again with
+        // half-road gaps only, and the way with fewer roads is kept.
+        let before = *stats;
+        self.gaps_from = 0;
+        let roads = self.join_with(slice, stats)?;
+        if roads > 1 {
+            *stats = before;
+            self.gaps_from = 1;
+            if self.join_with(slice, stats)? >= roads {
+                *stats = before;
+                self.gaps_from = 0;
+                self.join_with(slice, stats)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// [`join`](Self::join) with the gaps in `self.gaps`; returns how many roads (trees of
+    /// joins) the loops make.
+    pub(super) fn join_with(
+        &mut self,
+        slice: &Slice,
+        stats: &mut OffsetStats,
+    ) -> Result<usize, Error> {
+        let w = slice.settings().road_width;
+        let mut roads = 0;
+        self.sites.clear();
+        let n = self.loops.len();
+        // Adjacency by sampling each loop and looking one level down.
+        let mut pairs: Vec<(u16, u16, u16), MAX_SITES> = Vec::new();
+        for a in 0..n {
+            let len = self.loops[a].length;
+            let steps = libm::ceilf(len / (0.5 * w)) as usize;
+            for k in 0..steps {
+                let p = self.at(a, k as f32 * 0.5 * w);
+                if let Some((b, _)) = self.below(slice, a, p, STRICT_TOL) {
+                    if let Some(e) = pairs
+                        .iter_mut()
+                        .find(|e| e.0 as usize == a && e.1 as usize == b)
+                    {
+                        e.2 += 1;
+                    } else {
+                        pairs
+                            .push((a as u16, b as u16, 1))
+                            .map_err(|_| capacity(Limit::ContourSites))?;
+                    }
+                }
+            }
+        }
+        // Longest contact first: those have the most room for a site.
+        pairs.sort_unstable_by(|x, y| y.2.cmp(&x.2).then(x.0.cmp(&y.0)).then(x.1.cmp(&y.1)));
+        for l in self.loops.iter_mut() {
+            l.visited = false;
+            l.parent = NONE;
+        }
+        // Roots: the longest loop of level 0 first (the wall's first turn), then any loop
+        // left unreached. After each tree, loops no strict join reached get a relaxed join to
+        // any reached loop a level away before a new road is started.
+        loop {
+            let root = (0..n)
+                .filter(|&l| !self.loops[l].visited && !self.loops[l].optional)
+                .min_by(|&x, &y| {
+                    let (lx, ly) = (&self.loops[x], &self.loops[y]);
+                    lx.level
+                        .cmp(&ly.level)
+                        .then(ly.length.total_cmp(&lx.length))
+                        .then(x.cmp(&y))
+                });
+            let Some(root) = root else { break };
+            roads += 1;
+            self.loops[root].visited = true;
+            self.bfs(slice, &pairs, root, stats)?;
+            while let Some((other, site)) = self.relaxed_join(slice, w) {
+                self.attach(other, site, stats)?;
+                self.bfs(slice, &pairs, other, stats)?;
+            }
+        }
+        Ok(roads)
+    }
+
+    /// Records `site` as the join that reaches loop `other`.
+    pub(super) fn attach(
+        &mut self,
+        other: usize,
+        site: Site,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        self.sites
+            .push(site)
+            .map_err(|_| capacity(Limit::ContourSites))?;
+        let lo = &mut self.loops[other];
+        lo.visited = true;
+        lo.parent = (self.sites.len() - 1) as u16;
+        stats.joins += 1;
+        Ok(())
+    }
+
+    /// Joins every loop reachable from `start` (already reached) by strict sites, breadth first.
+    pub(super) fn bfs(
+        &mut self,
+        slice: &Slice,
+        pairs: &[(u16, u16, u16)],
+        start: usize,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        self.queue.clear();
+        // Never full: the queue was just emptied.
+        self.queue
+            .push(start as u16)
+            .map_err(|_| Limit::ContourLoops.error())?;
+        let mut head = 0;
+        while head < self.queue.len() {
+            let l = self.queue[head] as usize;
+            head += 1;
+            for &(a, b, _) in pairs.iter() {
+                let (a, b) = (a as usize, b as usize);
+                let other = if a == l {
+                    b
+                } else if b == l {
+                    a
+                } else {
+                    continue;
+                };
+                if self.loops[other].visited {
+                    continue;
+                }
+                if let Some(site) = self.find_site(slice, a, b, false) {
+                    self.attach(other, site, stats)?;
+                    self.queue
+                        .push(other as u16)
+                        .map_err(|_| capacity(Limit::ContourLoops))?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A relaxed site between a loop not yet reached and a reached loop one level away
+    /// (within two road widths of it), with the loop it reaches.
+    pub(super) fn relaxed_join(&self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
+        let n = self.loops.len();
+        for u in (0..n).filter(|&u| !self.loops[u].visited) {
+            for v in (0..n).filter(|&v| self.loops[v].visited) {
+                let (lu, lv) = (&self.loops[u], &self.loops[v]);
+                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).max(lv.bbox.0.x - lu.bbox.1.x);
+                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).max(lv.bbox.0.y - lu.bbox.1.y);
+                if gap_x.max(gap_y) > 2.0 * w {
+                    continue;
+                }
+                let site = if lu.level == lv.level + 1 {
+                    self.find_site(slice, u, v, true)
+                } else if lv.level == lu.level + 1 {
+                    self.find_site(slice, v, u, true)
+                } else {
+                    None
+                };
+                if let Some(site) = site {
+                    return Some((u, site));
+                }
+            }
+        }
+        None
+    }
+}

@@ -1,0 +1,365 @@
+//! Walking the joined loops into the layer: each loop from its entry around to its exit,
+//! across the bridges, widening a turn into the gap it leaves before a ridge, with the
+//! composition of the blended field at every vertex.
+
+use super::*;
+
+impl OffsetSpiral {
+    /// Whether a laid loop of level `level` passes within `tol` of `q`.
+    pub(super) fn laid_at(&self, q: Point, level: u16, tol: f32) -> bool {
+        self.loops.iter().enumerate().any(|(l, lp)| {
+            let (lo, hi) = lp.bbox;
+            if !lp.visited
+                || lp.level != level
+                || q.x < lo.x - tol
+                || q.y < lo.y - tol
+                || q.x > hi.x + tol
+                || q.y > hi.y + tol
+            {
+                return false;
+            }
+            let pts = self.pts(l);
+            self.loop_runs(l).any(|(b, ks)| {
+                polygon::bbox_distance(b, q) <= tol + polygon::rounding_slack(q, b)
+                    && ks.into_iter().any(|k| {
+                        let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                        crate::geometry::polyline::closest_on_segment(a, b, q)
+                            .0
+                            .dist(q)
+                            <= tol
+                    })
+            })
+        })
+    }
+
+    /// [`widened`] at `p` (whose nearest feature is `near`), against this layer's laid loops.
+    pub(super) fn widen(&self, slice: &Slice, p: Point, near: (usize, f32, Point)) -> (Point, f32) {
+        widened(slice, p, near, |q, level, tol| self.laid_at(q, level, tol))
+    }
+
+    /// The vertex at `p`, with its composition and its road width ([`widened`] at ridges).
+    pub(super) fn vertex(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        p: Point,
+        deposit: bool,
+    ) -> Vertex {
+        let half = 0.5 * slice.settings().road_width;
+        let near = nearest(slice, p);
+        let own = slice.material_at(near.0);
+        let material = if near.1 < half + 2.0 * FIRST_TURN_MARGIN {
+            own
+        } else {
+            field.at(p).unwrap_or(own)
+        };
+        let (at, width) = self.widen(slice, p, near);
+        Vertex {
+            at,
+            material,
+            width,
+            deposit,
+        }
+    }
+
+    /// Walks loop `l` from arc length `s` for `dist` in the given direction, emitting the
+    /// loop's points on the way and the end point.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn walk(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        sink: &mut impl PathSink,
+        l: usize,
+        s: f32,
+        dist: f32,
+        forward: bool,
+    ) -> Result<(), Error> {
+        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let len = self.loops[l].length;
+        let n = pts.len();
+        let s = wrap(s, len);
+        let mut k = if forward {
+            arc.partition_point(|&a| a <= s) % n
+        } else {
+            (arc.partition_point(|&a| a < s) + n - 1) % n
+        };
+        let mut prev = self.at(l, s);
+        for _ in 0..n {
+            let along = if forward {
+                wrap(arc[k] - s, len)
+            } else {
+                wrap(s - arc[k], len)
+            };
+            if along >= dist - 1e-5 {
+                break;
+            }
+            if along > 1e-5 {
+                self.emit_span(slice, field, sink, prev, pts[k])?;
+                prev = pts[k];
+            }
+            k = if forward {
+                (k + 1) % n
+            } else {
+                (k + n - 1) % n
+            };
+        }
+        let end = if forward { s + dist } else { s - dist };
+        self.emit_span(slice, field, sink, prev, self.at(l, end))
+    }
+
+    /// Emits the turn's straight piece from `from` (already emitted) to `to`. A piece longer
+    /// than [`WIDTH_STEP`] road widths along which some road widens ([`widened`]) is emitted
+    /// in steps that long, so a width applies where it was found rather than tapering over
+    /// the whole piece.
+    pub(super) fn emit_span(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        sink: &mut impl PathSink,
+        from: Point,
+        to: Point,
+    ) -> Result<(), Error> {
+        let w = slice.settings().road_width;
+        let steps = libm::ceilf(from.dist(to) / (WIDTH_STEP * w)).max(1.0) as usize;
+        let at = |k: usize| from.lerp(to, k as f32 / steps as f32);
+        let end = self.vertex(slice, field, to, true);
+        let width_at = |q: Point| self.widen(slice, q, nearest(slice, q)).1;
+        let start = sink.last_vertex().map_or(w, |v| v.width);
+        let varies =
+            steps > 1 && (start != w || end.width != w || (1..steps).any(|k| width_at(at(k)) != w));
+        if varies {
+            for k in 1..steps {
+                emit_move(slice, sink, self.vertex(slice, field, at(k), true))?;
+            }
+        }
+        emit_move(slice, sink, end)
+    }
+
+    /// The ends of `site` on loop `l`: `(own gap start, own gap end, other loop, other's gap
+    /// start, other's gap end)`.
+    pub(super) fn site_on(&self, site: usize, l: usize) -> (f32, f32, usize, f32, f32) {
+        let st = &self.sites[site];
+        if st.a as usize == l {
+            (st.a1, st.a2, st.b as usize, st.b1, st.b2)
+        } else {
+            (st.b1, st.b2, st.a as usize, st.a1, st.a2)
+        }
+    }
+
+    /// Walks the loops as one road per tree of joins.
+    pub(super) fn walk_all(
+        &mut self,
+        slice: &Slice,
+        plan: &Plan,
+        sink: &mut impl PathSink,
+        stats: &mut OffsetStats,
+    ) -> Result<(), Error> {
+        let field = BlendedField::new(slice, plan);
+        // Small loops no join reached are left out.
+        stats.dropped += self.loops.iter().filter(|l| !l.visited).count() as u16;
+        let roots: Vec<u16, MAX_LOOPS> = (0..self.loops.len())
+            .filter(|&l| self.loops[l].visited && self.loops[l].parent == NONE)
+            .map(|l| l as u16)
+            .collect();
+        for (r, &root) in roots.iter().enumerate() {
+            let root = root as usize;
+            if r > 0 {
+                stats.jumps += 1;
+            }
+            // Start the root where no join is.
+            let len = self.loops[root].length;
+            let mut s0 = 0.0;
+            while s0 < len && !self.free(root, s0, s0, 0.0) {
+                s0 += 0.1 * slice.settings().road_width;
+            }
+            emit_move(
+                slice,
+                sink,
+                self.vertex(slice, &field, self.at(root, s0), false),
+            )?;
+            self.stack.clear();
+            // Cannot fail: the stack was just emptied.
+            self.stack
+                .push(Frame {
+                    lp: root as u16,
+                    pos: s0,
+                    forward: true,
+                    remaining: len,
+                    entered_by: NONE,
+                })
+                .map_err(|_| Limit::ContourLoops.error())?;
+            while let Some(top) = self.stack.last().copied() {
+                let l = top.lp as usize;
+                let len = self.loops[l].length;
+                // The nearest join ahead on this loop, other than the one it was entered by.
+                let mut next: Option<(f32, usize)> = None;
+                for (si, st) in self.sites.iter().enumerate() {
+                    if si == top.entered_by as usize || (st.a != top.lp && st.b != top.lp) {
+                        continue;
+                    }
+                    let (x1, x2, _, _, _) = self.site_on(si, l);
+                    let ahead = if top.forward {
+                        wrap(x1 - top.pos, len)
+                    } else {
+                        wrap(top.pos - x2, len)
+                    };
+                    if ahead < top.remaining && next.is_none_or(|n| ahead < n.0) {
+                        next = Some((ahead, si));
+                    }
+                }
+                match next {
+                    Some((ahead, si)) => {
+                        self.walk(slice, &field, sink, l, top.pos, ahead, top.forward)?;
+                        let (x1, x2, child, y1, y2) = self.site_on(si, l);
+                        let gap = wrap(x2 - x1, len);
+                        let child_gap = wrap(y2 - y1, self.loops[child].length);
+                        let (resume, enter) = if top.forward { (x2, y1) } else { (x1, y2) };
+                        if let Some(f) = self.stack.last_mut() {
+                            f.pos = resume;
+                            f.remaining -= ahead + gap;
+                        }
+                        // The bridge across.
+                        emit_move(
+                            slice,
+                            sink,
+                            self.vertex(slice, &field, self.at(child, enter), true),
+                        )?;
+                        self.stack
+                            .push(Frame {
+                                lp: child as u16,
+                                pos: enter,
+                                forward: !top.forward,
+                                remaining: self.loops[child].length - child_gap,
+                                entered_by: si as u16,
+                            })
+                            .map_err(|_| capacity(Limit::ContourLoops))?;
+                    }
+                    None => {
+                        self.walk(slice, &field, sink, l, top.pos, top.remaining, top.forward)?;
+                        self.stack.pop();
+                        // The bridge back.
+                        if let Some(f) = self.stack.last() {
+                            let p = self.at(f.lp as usize, f.pos);
+                            emit_move(slice, sink, self.vertex(slice, &field, p, true))?;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A turn's point `p` widened into the gap it leaves before a ridge, and the road width there;
+/// `own`, `d` and `n` are its nearest feature, the distance to it and the gradient
+/// ([`nearest`]).
+///
+/// Turns lie at fixed distances from the features, so where two features' turns meet at the
+/// ridge between them (the bisector, where the distances agree) the last turn on each side
+/// leaves a sliver narrower than a road. Along the distance gradient `n` from `p` (a straight
+/// line inside the feature's cell), the ridge lies where another feature's distance `D_j(p + t
+/// n)` drops to `D(p) + t` (or the feature's own distance falls behind `D(p) + t`, at a ridge
+/// between two parts of one non-convex feature); the function `D_j(p + t n) - D(p) - t` only
+/// falls (`D_j` is 1-Lipschitz), so bisection finds it. If it lies closer than a road width `w`
+/// there is no next turn beyond `p`: the road widens by the sliver `g` (the ridge's distance
+/// beyond the
+/// road's outer edge, `t - w/2`) and its centre moves `g/2` outward, so its inner edge stays
+/// where it was and its outer edge reaches the ridge, where the other side's last turn, widened
+/// the same way, meets it. Where the next turn does cross the ray but was left out (a small
+/// loop no join reached, `laid(q, level)` false at its crossing `q`), the road widens the same
+/// way as far as [`Settings::max_width`] allows. The road is never wider than
+/// [`Settings::max_width`], and half its width never exceeds its clearance (`D` grows by `g/2`,
+/// and every other feature is at least that far: it is farther than the ridge).
+///
+/// [`Settings::max_width`]: crate::Settings::max_width
+fn widened(
+    slice: &Slice,
+    p: Point,
+    (own, d, n): (usize, f32, Point),
+    laid: impl Fn(Point, u16, f32) -> bool,
+) -> (Point, f32) {
+    let w = slice.settings().road_width;
+    let holes = slice.holes().len();
+    let len = n.norm();
+    if len < 1e-6 {
+        return (p, w);
+    }
+    let n = n * (1.0 / len);
+    // The nearest ridge along `n` within reach of the widest road's outer edge.
+    let gap = |f: usize, t: f32| slice.clearance_to(f, p + n * t) - d - t;
+    // The ridge is looked for as far as a turn can be missing: beyond a road width out the
+    // next turn crosses the ray, and the road widens only where that turn was left out (or
+    // never traced: a sliver of a level too thin for the grid near a saddle of `D`). The
+    // widening itself stops at `max_width`, short of a far ridge: a partial fill of a gap
+    // wider than the widest road still covers most of it.
+    let reach = (slice.settings().max_width - 0.5 * w).max(2.0 * w) + RIDGE_MARGIN;
+    let mut ridge = reach;
+    for f in 0..=holes {
+        // The feature's own ridges count too (a non-convex feature's parts face each other):
+        // along its own normal its distance grows exactly with `t` until one, to rounding.
+        let tol = if f == own {
+            RIDGE_TOL_PER_ROAD * w
+        } else {
+            0.0
+        };
+        // A hole whose box is at least `d + 2 reach` away is farther than `d + t` from every
+        // point of the ray within reach (its distance falls by at most `t`).
+        let far = slice
+            .holes()
+            .get(f)
+            .is_some_and(|h| f != own && polygon::bbox_distance(h.bbox(), p) >= d + 2.0 * reach);
+        if far || gap(f, ridge) >= -tol {
+            continue;
+        }
+        let (mut lo, mut hi) = (0.0f32, ridge);
+        for _ in 0..RIDGE_STEPS {
+            let mid = 0.5 * (lo + hi);
+            if gap(f, mid) >= -tol {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        ridge = lo;
+    }
+    let g = (ridge - 0.5 * w - RIDGE_MARGIN).min(slice.settings().max_width - w);
+    if g <= 0.0 {
+        return (p, w);
+    }
+    // The next turn crosses the ray a road width out: widen only if it was left out, and
+    // only as far as the widened road keeps off every laid piece of that turn (near a corner
+    // of the next turn, where it meets another feature's turn at the ridge, the traced turn
+    // cuts the corner and passes the ray's point at a distance).
+    let next = if ridge >= w {
+        // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
+        // finest road) would only be clipped, never wrapped.
+        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16 + 1;
+        if laid(p + n * w, level, LAID_TOL * w) {
+            return (p, w);
+        }
+        Some(level)
+    } else {
+        None
+    };
+    // Where the ridge bends toward the road (near a corner where two features' turns meet),
+    // the widened road's round edge would cross it sideways onto the other side's road:
+    // widen less, or not at all.
+    let in_cell = |q: Point| {
+        let mine = slice.clearance_to(own, q);
+        (0..=holes).all(|f| f == own || slice.clearance_to(f, q) >= mine)
+    };
+    let mut g = g;
+    for _ in 0..WIDEN_TRIES {
+        let (c, r) = (p + n * (0.5 * g), 0.5 * (w + g));
+        if next.is_none_or(|level| !laid(c, level, r + 0.5 * w))
+            && EDGE_DIRECTIONS
+                .iter()
+                .all(|&(x, y)| in_cell(c + Point::new(x, y) * r))
+        {
+            return (c, w + g);
+        }
+        g *= 0.5;
+    }
+    (p, w)
+}

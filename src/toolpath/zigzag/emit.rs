@@ -1,0 +1,358 @@
+//! Depositing the zigzag: a road out and back along each MCL (banded, or a meander where the
+//! fan outgrows the widest road), and the arcs along the keep-out curves between MCL ends.
+
+use super::*;
+
+/// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
+/// neighbouring MCLs ([`neighbours`]), `spliced` the curve of each end (`from` end first) that
+/// leads into a splice's inner arc ([`inner_end`]); the first vertex of a piece is reached by
+/// travel.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn emit_mcl(
+    slice: &Slice,
+    plan: &Plan,
+    k: usize,
+    fan: &Fan<'_>,
+    spliced: [Option<usize>; 2],
+    forward: bool,
+    travel_to_start: bool,
+    sink: &mut impl PathSink,
+) -> Result<(), Error> {
+    let w = slice.settings().road_width;
+    let pts = plan.points(&plan.mcls[k]);
+    let (ma, mb) = mcl_end_materials(slice, plan, k);
+    // Arc length at every vertex, summed from the `from` end either way, so both ends carry
+    // exactly their feature's material.
+    let mut cum = [0.0f32; crate::config::MCL_POINTS];
+    for i in 1..pts.len() {
+        cum[i] = cum[i - 1] + pts[i - 1].dist(pts[i]);
+    }
+    let n = pts.len();
+    let len = cum[n - 1];
+    // The MCL's vertices in walking order, with extra ones near both ends (`END_STEPS`).
+    let order = |step: usize| if forward { step } else { n - 1 - step };
+    // Cannot fail: at most `END_STEPS.len()` extras before and after one vertex.
+    let mut stops: Vec<(Point, Point, f32, bool), { 2 * END_STEPS.len() + 2 }> = Vec::new();
+    // Extra stops on the move from end vertex `e` toward vertex `q`, nearest the end first;
+    // on a move that is both first and last, each end's stay on its own half.
+    let (pts, cum) = (&pts, &cum);
+    let extras = |e: usize, q: usize| {
+        let seg = pts[e].dist(pts[q]);
+        let reach = if n == 2 { 0.5 * seg } else { seg - 1e-4 };
+        END_STEPS
+            .iter()
+            .filter(move |&&f| f * w < reach)
+            .map(move |&f| {
+                let t = f * w / seg;
+                let at_cum = cum[e] + (cum[q] - cum[e]) * t;
+                (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
+            })
+    };
+    let mut strokes = Strokes::new();
+    for step in 0..n {
+        let i = order(step);
+        let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
+        let is_end = step == 0 || step + 1 == n;
+        stops.clear();
+        if step + 1 == n && n >= 2 {
+            // Approaching the far end.
+            for stop in extras(i, order(step - 1)).rev() {
+                stops.push(stop).map_err(|_| Limit::PathVertices.error())?;
+            }
+        }
+        stops
+            .push((pts[i], dir, cum[i], is_end))
+            .map_err(|_| Limit::PathVertices.error())?;
+        if step == 0 && n >= 2 {
+            // Leaving the first end.
+            for stop in extras(i, order(1)) {
+                stops.push(stop).map_err(|_| Limit::PathVertices.error())?;
+            }
+        }
+        for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
+            // Inside a meander (the last sample before was a stroke, and the band here is
+            // wide too) the strokes fill the band: no road along the MCL's middle.
+            let band = band_at(slice, plan, p, dir, fan);
+            if strokes.in_meander && !is_end && step != 0 && step + 1 != n && too_wide(slice, band)
+            {
+                continue;
+            }
+            strokes.in_meander = false;
+            let (mut at, mut width) = road_at(slice, p, is_end, band);
+            // An end into a splice's inner arc lies on its line, a quarter road off the curve.
+            let shifted = match step {
+                0 if k == 0 => spliced[0],
+                _ if step + 1 == n && k + 1 == stops.len() => spliced[1],
+                _ => None,
+            };
+            if let Some(c) = shifted {
+                let (share, _, farther) = shared_strip(slice);
+                at = off_curve(slice, c, at, farther);
+                width = share;
+            }
+            let v = Vertex {
+                at,
+                material: along(&ma, &mb, at_cum, len),
+                width,
+                // Reached by travel only at the start of a piece; else the arc before leads
+                // here.
+                deposit: step != 0 || k != 0 || !travel_to_start,
+            };
+            emit_move(slice, sink, v)?;
+        }
+        if step + 1 < n {
+            let j = order(step + 1);
+            meander(
+                slice,
+                plan,
+                (pts[i], pts[j]),
+                (cum[i], cum[j], len),
+                (&ma, &mb),
+                fan,
+                &mut strokes,
+                sink,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// How an arc of a curve lies among the others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Arc {
+    /// Alone on its stretch of curve.
+    Plain,
+    /// A splice's outer arc: it passes the ends of the inner arc, and shares the stretch
+    /// between them (arc lengths from its start, along it) with that arc.
+    Outer(f32, f32),
+    /// A splice's inner arc: between two neighbouring ends, under an outer arc.
+    Inner,
+}
+
+/// The ends of curve `c` strictly between `from` and `to` going forward (increasing arc
+/// length) or back: how many, and whether they are paired among themselves (arcs never
+/// cross, so an arc may pass over only an arc nested inside it).
+pub(super) fn spanned(ends: &Ends, c: usize, from: u16, to: u16, forward: bool) -> (usize, bool) {
+    let (lo, hi) = ends.ranges[c];
+    let (lo, n) = (lo as usize, (hi - lo) as usize);
+    // Steps from `from` to end `id` in the direction of travel.
+    let steps = |id: u16| {
+        let (pf, k) = (
+            ends.slot[from as usize] as usize,
+            ends.slot[id as usize] as usize,
+        );
+        if forward {
+            (k + n - pf) % n
+        } else {
+            (pf + n - k) % n
+        }
+    };
+    let count = steps(to).saturating_sub(1);
+    let pf = ends.slot[from as usize] as usize;
+    let closed = (1..=count).all(|k| {
+        let p = if forward { pf + k } else { pf + n - k };
+        let mate = ends.arc[ends.order[lo + p % n] as usize];
+        mate != NONE && (1..=count).contains(&steps(mate))
+    });
+    (count, closed)
+}
+
+/// The arc of curve `c` from end `from` to end `to`: which way it runs (forward: increasing
+/// arc length; [`arc_of_direction`]), and its [`Arc`] role.
+pub(super) fn arc_of(
+    ends: &Ends,
+    curve: &KeepOut<'_>,
+    c: usize,
+    from: u16,
+    to: u16,
+) -> (bool, Arc) {
+    let s0 = ends.param[from as usize];
+    let (forward, (count, closed)) = arc_of_direction(ends, curve, c, from, to);
+    let (lo, hi) = ends.ranges[c];
+    let (lo, n) = (lo as usize, (hi - lo) as usize);
+    if n < 4 || !closed {
+        return (forward, Arc::Plain);
+    }
+    let pf = ends.slot[from as usize] as usize;
+    // The end `k` steps from `from` along the arc's direction.
+    let at = |k: isize| {
+        let step = if forward { k } else { -k };
+        ends.order[lo + (pf as isize + step).rem_euclid(n as isize) as usize]
+    };
+    let along = |id: u16| {
+        let s = ends.param[id as usize];
+        if forward {
+            curve.wrap(s - s0)
+        } else {
+            curve.wrap(s0 - s)
+        }
+    };
+    match count {
+        // Over a nested arc: the outer arc of a splice.
+        2 => (forward, Arc::Outer(along(at(1)), along(at(2)))),
+        // Under one: the arc from the end before to the end after passes over exactly these
+        // two.
+        0 => {
+            let (before, after) = (at(-1), at(2));
+            let outer = ends.arc[before as usize] == after && {
+                arc_of_direction(ends, curve, c, before, after) == (forward, (2, true))
+            };
+            (forward, if outer { Arc::Inner } else { Arc::Plain })
+        }
+        _ => (forward, Arc::Plain),
+    }
+}
+
+/// Which way the arc of curve `c` from `from` to `to` runs, and what it passes over
+/// ([`spanned`]): the way that passes over no end but those of an arc nested inside it; of
+/// two such ways (or none), the one over fewer ends, then the shorter.
+pub(super) fn arc_of_direction(
+    ends: &Ends,
+    curve: &KeepOut<'_>,
+    c: usize,
+    from: u16,
+    to: u16,
+) -> (bool, (usize, bool)) {
+    let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
+    let ways = [true, false].map(|fwd| spanned(ends, c, from, to, fwd));
+    let shorter = curve.wrap(s1 - s0) <= curve.wrap(s0 - s1);
+    let forward = match (ways[0], ways[1]) {
+        ((_, true), (_, false)) => true,
+        ((_, false), (_, true)) => false,
+        ((a, _), (b, _)) if a != b => a < b,
+        _ => shorter,
+    };
+    (forward, ways[usize::from(!forward)])
+}
+
+/// Whether end `id` starts or ends a splice's inner arc ([`Arc::Inner`]).
+pub(super) fn inner_end(ends: &Ends, curves: &[KeepOut<'_>], id: u16) -> bool {
+    let mate = ends.arc[id as usize];
+    if mate == NONE {
+        return false;
+    }
+    let c = ends.curve[id as usize] as usize;
+    arc_of(ends, &curves[c], c, id, mate).1 == Arc::Inner
+}
+
+/// How two arcs share one stretch of a keep-out curve's strip (a splice, [`emit_arc`]): the
+/// width of each, and how far off the keep-out curve (away from the feature) the nearer and
+/// the farther one run. Half a road each, a quarter road either side of the curve, when the
+/// slice's [`min_width`](crate::Settings::min_width) allows; wider and nearer the curve (so
+/// overlapping) when it does not; their outer edges [`EDGE_MARGIN`] inside the strip.
+pub(super) fn shared_strip(slice: &Slice) -> (f32, f32, f32) {
+    let w = slice.settings().road_width;
+    let share = (0.5 * w - 2.0 * EDGE_MARGIN)
+        .max(slice.settings().min_width)
+        .min(w - 2.0 * EDGE_MARGIN);
+    let nearer = 0.5 * share + EDGE_MARGIN - 0.5 * w;
+    let farther = 0.5 * w - 0.5 * share - EDGE_MARGIN;
+    (share, nearer, farther)
+}
+
+/// `p`, on the keep-out curve of curve `c` (a hole index, or `holes` for the wall), moved
+/// `delta` farther from its feature (nearer for a negative `delta`).
+pub(super) fn off_curve(slice: &Slice, c: usize, p: Point, delta: f32) -> Point {
+    let (_, away) = slice.clearance_gradient_to(c, p);
+    p + away * delta
+}
+
+/// Deposits the arc of curve `c` from end `from` to end `to` (the way that passes no other
+/// end but those the arc spans).
+///
+/// A splice lays two arcs over one stretch of curve (the outer arc passing the inner arc's
+/// ends). There they share the road's strip half and half instead of both covering it: the
+/// outer arc runs a quarter road nearer the feature and the inner one a quarter road farther,
+/// both half a road wide ([`shared_strip`]), and the MCLs into the inner arc end on its line
+/// ([`inner_end`]).
+pub(super) fn emit_arc(
+    slice: &Slice,
+    ends: &Ends,
+    curve: &KeepOut<'_>,
+    c: usize,
+    from: u16,
+    to: u16,
+    sink: &mut impl PathSink,
+) -> Result<(), Error> {
+    let w = slice.settings().road_width;
+    let material = slice.material_at(c);
+    let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
+    let (forward, role) = arc_of(ends, curve, c, from, to);
+    let vertex = |at: Point, width: f32| Vertex {
+        at,
+        material,
+        width,
+        deposit: true,
+    };
+    let (share, nearer_by, farther_by) = shared_strip(slice);
+    let shared = |p: Point, nearer: bool| {
+        let delta = if nearer { nearer_by } else { farther_by };
+        vertex(off_curve(slice, c, p, delta), share)
+    };
+    let w = w - 2.0 * EDGE_MARGIN;
+    // The curve's vertices strictly between the two MCL ends (the MCLs carry the ends), with
+    // their arc lengths from `s0`.
+    // `arc` gives both ends and at most every vertex in between: a full buffer is a
+    // contour of more vertices than the core holds.
+    let mut inner: Vec<(Point, f32), { crate::config::MAX_VERTICES + 2 }> = Vec::new();
+    let mut full = false;
+    curve.arc(s0, s1, forward, |p, s| {
+        let along = if forward {
+            curve.wrap(s - s0)
+        } else {
+            curve.wrap(s0 - s)
+        };
+        full |= inner.push((p, along)).is_err();
+    });
+    if full {
+        return Err(Limit::Vertices.error());
+    }
+    let between = inner.iter().skip(1).take(inner.len().saturating_sub(2));
+    match role {
+        Arc::Plain => {
+            for &(p, _) in between {
+                emit_move(slice, sink, vertex(p, w))?;
+            }
+        }
+        Arc::Inner => {
+            for &(p, _) in between {
+                emit_move(slice, sink, shared(p, false))?;
+            }
+        }
+        Arc::Outer(x, y) => {
+            let point = |along: f32| curve.at(if forward { s0 + along } else { s0 - along });
+            let mut state = 0;
+            for &(p, along) in between {
+                if state == 0 && along > x {
+                    emit_move(slice, sink, vertex(point(x), w))?;
+                    emit_move(slice, sink, shared(point(x), true))?;
+                    state = 1;
+                }
+                if state == 1 && along >= y {
+                    emit_move(slice, sink, shared(point(y), true))?;
+                    emit_move(slice, sink, vertex(point(y), w))?;
+                    state = 2;
+                }
+                emit_move(
+                    slice,
+                    sink,
+                    if state == 1 {
+                        shared(p, true)
+                    } else {
+                        vertex(p, w)
+                    },
+                )?;
+            }
+            if state == 0 {
+                emit_move(slice, sink, vertex(point(x), w))?;
+                emit_move(slice, sink, shared(point(x), true))?;
+                state = 1;
+            }
+            if state == 1 {
+                emit_move(slice, sink, shared(point(y), true))?;
+                emit_move(slice, sink, vertex(point(y), w))?;
+            }
+        }
+    }
+    Ok(())
+}
