@@ -33,7 +33,7 @@
 //! | unit | where | bytes |
 //! |------|-------|-------|
 //! | hollow feature | `Slice` (vertices, arc lengths, chunk boxes) | 13 per vertex (3.3 KiB [52 KiB]) |
-//! | feature's keep-out curve | a view of the feature | 40 |
+//! | feature's keep-out curve | a view of the feature | 24 (40 on a 64-bit host) |
 //! | field grid node | `Planner` (label, `u`; lent to the offset spiral's distances and marks once the MCLs are traced) | 5 (80 KiB [320 KiB]) |
 //! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
 //! | offset-spiral contour point | `OffsetSpiral` (point, arc length, a 16th of a run's box) | 13 (104 KiB [832 KiB]) |

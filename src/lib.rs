@@ -136,5 +136,6 @@ pub use error::{Error, FeatureId, Limit, SettingId};
 /// The fixed-capacity collections the public types are made of.
 pub use heapless;
 pub use mcl::{Mcl, Target};
-pub use plan::{Plan, PlanStats, Planner};
+pub use plan::{Plan, Planner};
 pub use slice::{Feature, Material, Settings, Slice};
+pub use stats::PlanStats;

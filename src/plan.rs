@@ -6,13 +6,12 @@ use crate::cells::{Bisector, Cells};
 use crate::config::{MAX_HALVES, MAX_MCLS, MCL_POINTS, TRACE_POINTS};
 use crate::digest::Fnv;
 use crate::field::{Field, GridMemory};
-use crate::geometry::Point;
+use crate::geometry::{primitives, Point};
 use crate::mcl::matching::joined_points;
 use crate::mcl::{insert, matching, relax, HalfEnd, Halves, Mcl, Target};
 use crate::{Error, Limit, Slice};
 
-// Defined below the MCL phases that count into it (no import of this module from them).
-pub use crate::stats::PlanStats;
+use crate::stats::PlanStats;
 
 /// A finished plan: the MCLs, the bisectors and the branch points.
 #[derive(Clone, Debug, Default)]
@@ -279,7 +278,7 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
         }
     }
     for a in 0..halves.len() {
-        let box_a = polyline::bbox(halves.points(a));
+        let box_a = primitives::bbox(halves.points(a));
         for b in (a + 1)..halves.len() {
             let (ha, hb) = (&halves[a], &halves[b]);
             if !ha.alive || !hb.alive || ha.partner == Some(b as u16) {
@@ -289,7 +288,7 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
                 || ha.end == HalfEnd::Bisector(hb.hole)
                 || hb.end == HalfEnd::Bisector(ha.hole);
             if related
-                && polyline::boxes_overlap(box_a, polyline::bbox(halves.points(b)), 1e-4)
+                && polyline::boxes_overlap(box_a, primitives::bbox(halves.points(b)), 1e-4)
                 && polyline::polylines_cross(halves.points(a), halves.points(b))
             {
                 remove(halves, b, stats);

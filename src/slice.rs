@@ -8,7 +8,7 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES, SIMPLIFY_ABOVE_VERTICES};
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{Error, FeatureId, Limit, SettingId};
 
 /// A composition: one fraction per material channel, summing to 1.
@@ -141,12 +141,12 @@ impl Feature {
             pts.reverse();
         }
         check_material(id, &material)?;
-        let bbox = polygon::bbox(&pts);
+        let bbox = primitives::bbox(&pts);
         let mut chunks = Vec::new();
         let n = pts.len();
         for start in (0..n).step_by(CHUNK) {
             let end = (start + CHUNK).min(n);
-            let mut b = polygon::bbox(&pts[start..end]);
+            let mut b = primitives::bbox(&pts[start..end]);
             let closing = pts[end % n];
             b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
             b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
@@ -277,7 +277,7 @@ impl Feature {
             let ahead = best.1 == f32::INFINITY || (bounds[c], c) < (bounds[best.3], best.3);
             for k in self.chunk_edges(c) {
                 let (q, _) =
-                    polyline::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
+                    primitives::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
                 let d2 = (q - p).norm2();
                 if d2 < best.1 || (d2 == best.1 && ahead && best.3 != c) {
                     *best = (q, d2, k, c);
@@ -412,7 +412,7 @@ fn douglas_peucker_closed(points: &[Point], tol: f32) -> Option<Vec<u32, MAX_VER
         let (a, b) = (points[i], points[j % n]);
         let mut best = (0.0f32, 0usize);
         for (k, &q) in points.iter().enumerate().take(j).skip(i + 1) {
-            let (c, _) = polyline::closest_on_segment(a, b, q);
+            let (c, _) = primitives::closest_on_segment(a, b, q);
             let d = c.dist(q);
             if d > best.0 {
                 best = (d, k);
@@ -935,7 +935,7 @@ impl Slice {
                     && f.chunks_near((lo, hi)).any(|edges| {
                         edges
                             .into_iter()
-                            .any(|(p, q)| polygon::segments_meet(a, b, p, q))
+                            .any(|(p, q)| primitives::segments_meet(a, b, p, q))
                     })
             })
     }
@@ -948,7 +948,7 @@ impl Slice {
     pub fn segment_dip(&self, a: Point, b: Point, clearance: f32) -> Option<(f32, Point)> {
         let mut best: Option<(f32, f32, Point)> = None;
         self.vertices_near(a, b, clearance, |q| {
-            let (c, t) = polyline::closest_on_segment(a, b, q);
+            let (c, t) = primitives::closest_on_segment(a, b, q);
             let d = c.dist(q);
             if d < clearance && best.is_none_or(|x| d < x.0) {
                 best = Some((d, t, c));

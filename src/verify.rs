@@ -3,7 +3,7 @@
 //! [`verify`] re-derives each property from the slice and the plan alone (no planner state),
 //! so tests, the host tool and the firmware can check a plan before anything is printed.
 
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polyline, primitives, Point};
 use crate::{FeatureId, Plan, Slice, Target};
 
 /// A property of a plan that does not hold.
@@ -141,7 +141,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
     }
     for (a, ma) in plan.mcls.iter().enumerate() {
         let pa = plan.points(ma);
-        let ba = polyline::bbox(&pa);
+        let ba = primitives::bbox(&pa);
         for (b, mb) in plan.mcls.iter().enumerate().skip(a + 1) {
             if ma.joint.dist(mb.joint) < settings.relax_spacing - ON_CURVE_TOL {
                 return Err(Violation::Crowded {
@@ -150,7 +150,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                 });
             }
             let pb = plan.points(mb);
-            if polyline::boxes_overlap(ba, polyline::bbox(&pb), 1e-4)
+            if polyline::boxes_overlap(ba, primitives::bbox(&pb), 1e-4)
                 && polyline::polylines_cross(&pa, &pb)
             {
                 return Err(Violation::Crossing {

@@ -41,9 +41,10 @@ fn exchange(host: &mut Host, ctrl: &mut Ctrl, now: u64) -> (Vec<Event>, Vec<Ctrl
         let (e, r) = ctrl.receive(now, rest);
         rest = r;
         if e == Some(Event::SliceReady) {
-            // The outcome reaches the host as a reply (accepted, or the error).
+            // The outcome reaches the host as a reply (accepted, or the error), which the
+            // tests read from the host's side.
             let mut store = Box::new(hollowpath::slice::SliceStore::new());
-            let _ = ctrl.finish_slice(&mut store);
+            let _reported = ctrl.finish_slice(&mut store);
         }
         events.extend(e);
     }

@@ -34,7 +34,7 @@ fn zigzag_is_one_continuous_road_through_both_cells() {
         assert!(
             path.windows(2).any(|s| {
                 let (q, _) =
-                    hollowpath::geometry::polyline::closest_on_segment(s[0].at, s[1].at, m.joint);
+                    hollowpath::geometry::primitives::closest_on_segment(s[0].at, s[1].at, m.joint);
                 s[1].deposit && q.dist(m.joint) <= 0.5 * s[1].width.max(w) + 1e-3
             }),
             "MCL ending at {:?} missing",

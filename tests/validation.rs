@@ -508,7 +508,7 @@ fn deviation(input: &[Point], simple: &[Point]) -> f32 {
         .map(|&p| {
             (0..n)
                 .map(|k| {
-                    let (q, _) = hollowpath::geometry::polyline::closest_on_segment(
+                    let (q, _) = hollowpath::geometry::primitives::closest_on_segment(
                         simple[k],
                         simple[(k + 1) % n],
                         p,

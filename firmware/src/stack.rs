@@ -7,11 +7,17 @@
 //! of the firmwares is the planner's, 37 KiB), and can never reach a static above it.
 //!
 //! **Fault entry.** The MPU fault escalates to HardFault (MemManage is left disabled), which
-//! runs with the MPU off (`HFNMIENA` clear). Its entry ([`HardFault`], in assembly) first
-//! moves the stack pointer back to the top of the stack, so that the handler has a stack even
-//! when the fault was the stack running out (its frames overwrite `main`'s, which never runs
-//! again), then calls the firmware's `on_hard_fault(sp)` with the faulting stack pointer,
-//! which closes the valves and says what happened ([`fault_report`]).
+//! runs with the MPU off (`HFNMIENA` clear). Its entry (`HardFault`, in assembly) takes the
+//! faulting stack pointer and, where that is inside the stack, the faulting instruction's
+//! address from the exception frame, then moves the stack pointer back to the top of the
+//! stack, so that the handler has a stack even when the fault was the stack running out (its
+//! frames overwrite `main`'s, which never runs again), and calls the firmware's
+//! `on_hard_fault(sp, pc)`, which closes the valves and says what happened ([`halt`]).
+//!
+//! The guard is the 64 KiB below RAM: on QEMU's mps2-an386 nothing is there. On an STM32
+//! that range can hold system memory (the bootloader, the unique ID, calibration values):
+//! a firmware that reads them must place its stack elsewhere (the SKR 2's in its CCM, whose
+//! lower neighbour is reserved address space), or its reads would be reported as overflows.
 //!
 //! **Figures.** The statics (everything the linker places in RAM, `.data`, `.bss`,
 //! `.uninit`) and the stack's peak, measured by painting the free stack between its bottom
@@ -71,8 +77,8 @@ pub fn install_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
     if start % GUARD != 0 {
         return false;
     }
-    // RASR: XN (bit 28), AP = 0b000 (no access, bits 24..27), SIZE = log2(GUARD) - 1 (bits
-    // 1..6), ENABLE (bit 0).
+    // RASR: XN (bit 28), AP = 0b000 (no access, bits 24..26), SIZE = log2(GUARD) - 1 (bits
+    // 1..5), ENABLE (bit 0).
     let rasr = (1 << 28) | ((GUARD.trailing_zeros() - 1) << 1) | 1;
     // SAFETY: region 0 covers only the guard, below the RAM the stack and the statics use;
     // PRIVDEFENA keeps the default map for everything else, so no other access changes. The
@@ -91,9 +97,10 @@ pub fn install_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
 }
 
 // The HardFault entry (the vector table's `HardFault`, instead of cortex-m-rt's trampoline):
-// the faulting stack pointer in r0, the stack pointer moved to the top of the stack, then the
-// firmware's `on_hard_fault(sp: u32) -> !` (each firmware that includes this module defines
-// it at its crate root).
+// r0 the faulting stack pointer; r1 the stacked PC if the frame lies inside the stack (0
+// otherwise: below it is the guard, and reading there could fault again); the stack pointer
+// moved to the top of the stack; then the firmware's `on_hard_fault(sp: u32, pc: u32) -> !`
+// (each firmware that includes this module defines it at its crate root).
 core::arch::global_asm!(
     ".section .HardFault.user, \"ax\"",
     ".global HardFault",
@@ -101,16 +108,28 @@ core::arch::global_asm!(
     ".thumb_func",
     "HardFault:",
     "  mrs r0, msp",
-    "  ldr r1, ={top}",
-    "  msr msp, r1",
+    "  movs r1, #0",
+    "  ldr r2, ={bottom}",
+    "  cmp r0, r2",
+    "  blo 1f",
+    "  ldr r2, ={top}",
+    "  subs r2, r2, #32",
+    "  cmp r0, r2",
+    "  bhi 1f",
+    "  ldr r1, [r0, #24]",
+    "1:",
+    "  ldr r2, ={top}",
+    "  msr msp, r2",
     "  b {handler}",
+    bottom = sym _stack_end,
     top = sym _stack_start,
     handler = sym crate::on_hard_fault,
 );
 
-/// In the HardFault handler: `Some(address)` if the fault was a data access to the guard (the
-/// stack overflowed), else `None`.
-pub fn guard_fault() -> Option<usize> {
+/// In the HardFault handler, `sp` the faulting stack pointer: `Some(address)` if the fault
+/// was the stack running into the guard (a data access there, or stacking an exception frame
+/// with the stack pointer there), else `None`.
+pub fn guard_fault(sp: u32) -> Option<usize> {
     // SAFETY: reads of the SCB's fault status and address registers (no side effect on
     // read).
     let (cfsr, mmfar) = unsafe {
@@ -118,41 +137,36 @@ pub fn guard_fault() -> Option<usize> {
         (scb.cfsr.read(), scb.mmfar.read())
     };
     // MMFSR: MMARVALID (bit 7) with the faulting address; MSTKERR (bit 4) for a fault while
-    // stacking an exception frame (the stack pointer was in the guard).
+    // stacking an exception frame.
     let (start, end) = guard();
     let at = mmfar as usize;
     if cfsr & (1 << 7) != 0 && (start..end).contains(&at) {
         Some(at)
-    } else if cfsr & (1 << 4) != 0 {
-        Some(end)
+    } else if cfsr & (1 << 4) != 0 && (start..end).contains(&(sp as usize)) {
+        Some(sp as usize)
     } else {
         None
     }
 }
 
-/// The line the HardFault handler prints, `sp` the faulting stack pointer: the stack overflow
-/// into the guard, or the faulting instruction's address (read from the exception frame at
-/// `sp`, which is in RAM when the fault was not the stack's).
-pub fn fault_report(sp: u32) {
-    match guard_fault() {
+/// The end of every fault, from a firmware's `on_hard_fault(sp, pc)`: the valves shut first
+/// (`shut_valves`), then the report (a stack overflow into the guard, or the faulting
+/// instruction's address `pc`, 0 where the frame could not be read), then `also` (a test's
+/// extra line), and QEMU exits with failure.
+pub fn halt(sp: u32, pc: u32, shut_valves: fn(), also: impl FnOnce()) -> ! {
+    shut_valves();
+    match guard_fault(sp) {
         Some(at) => cortex_m_semihosting::hprintln!(
             "stack overflow: the stack ran past its {} bytes into the guard at {:#x}",
             room(),
             at
         ),
-        None => {
-            let (bottom, top) = stack_bounds();
-            let frame = sp as usize;
-            let pc = if frame >= bottom && frame + 32 <= top {
-                // SAFETY: a word of the exception frame the processor stacked at `sp`, inside
-                // the stack region (checked above).
-                unsafe { core::ptr::read_volatile((frame + 24) as *const u32) }
-            } else {
-                0
-            };
-            cortex_m_semihosting::hprintln!("hard fault at {:#x} (sp {:#x})", pc, sp)
-        }
+        None => cortex_m_semihosting::hprintln!("hard fault at {:#x} (sp {:#x})", pc, sp),
     }
+    also();
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
 }
 
 /// The highest peak [`peak`] has measured (paint is lost each time the RAM is painted again).
@@ -177,8 +191,8 @@ pub fn paint() {
     }
 }
 
-/// The stack's peak since it was last painted, in bytes: from the top of RAM down to the
-/// lowest word that is no longer paint (the frames above the painting one count in full).
+/// The stack's peak since it was last painted, in bytes: from the top of the stack down to
+/// the lowest word that is no longer paint (the frames above the painting one count in full).
 pub fn peak() -> usize {
     let p = unpainted();
     HIGHEST.fetch_max(p, Ordering::Relaxed);

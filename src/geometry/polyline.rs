@@ -1,7 +1,6 @@
 //! Open polylines given as point slices.
 
-pub use super::primitives::closest_on_segment;
-use super::primitives::{orient, segments_meet};
+use super::primitives::{bbox, closest_on_segment, orient, segments_meet};
 use super::Point;
 
 /// Length of an open polyline.
@@ -165,11 +164,6 @@ fn only_shared_end(a: Point, b: Point, c: Point, d: Point) -> bool {
         Some((s, x, y)) => orient(s, x, y) != 0.0 || (x - s).dot(y - s) <= 0.0,
         None => false,
     }
-}
-
-/// Bounding box of a polyline (min, max).
-pub fn bbox(pts: &[Point]) -> (Point, Point) {
-    super::primitives::bbox(pts)
 }
 
 /// Whether two boxes overlap (with a margin).

@@ -31,8 +31,9 @@ use crate::slice::{Material, Settings};
 
 /// The protocol version; peers of different versions refuse each other (2: small contour
 /// chunks, the printer configuration in chunks, [`CtrlMsg::Stopped`]; 3: a layer's
-/// telemetry counts its starved step alarms, [`LayerTelemetry::starved`]).
-pub const PROTOCOL_VERSION: u16 = 3;
+/// telemetry counts its starved step alarms, [`LayerTelemetry::starved`]; 4: the capacity
+/// [`Limit::HalfPoolPoints`](crate::Limit::HalfPoolPoints) a refusal may name).
+pub const PROTOCOL_VERSION: u16 = 4;
 /// Bytes of zigzag-varint vertices in one [`ContourChunk`] (and of encoded printer
 /// configuration in one [`PrinterChunk`]).
 pub const CHUNK_BYTES: usize = 64;

@@ -22,7 +22,7 @@ use heapless::Vec;
 use crate::cells::{away_from_hole, onto_bisector, Cells};
 use crate::config::{HALF_POINTS, MAX_HALVES, MCL_POINTS};
 use crate::error::{Error, Limit};
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polyline, primitives, Point};
 use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
 use crate::stats::PlanStats;
 use crate::Slice;
@@ -250,7 +250,7 @@ pub(crate) fn crosses_finished(
 ) -> bool {
     crosses_finished_boxed(
         halves,
-        |k, _| polyline::bbox(halves.points(k)),
+        |k, _| primitives::bbox(halves.points(k)),
         pts,
         skip,
         holes,
@@ -267,7 +267,7 @@ pub(crate) fn crosses_finished_boxed(
     skip: &[usize],
     holes: &[u8],
 ) -> bool {
-    let bb = polyline::bbox(pts);
+    let bb = primitives::bbox(pts);
     halves.iter().enumerate().any(|(k, h)| {
         h.alive
             && holes.contains(&h.hole)

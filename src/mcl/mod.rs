@@ -57,7 +57,7 @@ const _: () = assert!(HALF_POINTS <= u8::MAX as usize);
 const _: () = assert!(HALF_POOL_POINTS <= u32::MAX as usize);
 
 /// The halves of a plan, their polylines in one pool of points: a half takes the points it
-/// has (14 on average on the reference slices) rather than room for [`HALF_POINTS`] each,
+/// has (5-14 on average on the reference slices) rather than room for [`HALF_POINTS`] each,
 /// which took 150 KiB on a controller. Reads as a slice of [`Half`] (`halves[k].hole`,
 /// `halves.iter()`); the points through [`points`](Self::points).
 #[derive(Clone, Debug, Default)]
@@ -134,7 +134,9 @@ impl Halves {
             limit,
             feature: Some(FeatureId::Hole(hole)),
         };
-        if pts.len() > HALF_POINTS || pts.is_empty() {
+        // A traced half has at least its start and its end (`polyline::simplify` keeps both).
+        debug_assert!(pts.len() >= 2, "a half of {} points", pts.len());
+        if pts.len() > HALF_POINTS {
             return Err(full(Limit::HalfPoints));
         }
         if self.list.is_full() {
@@ -151,6 +153,9 @@ impl Halves {
     }
 
     /// Drops the halves no longer alive, and their points (the order of the rest kept).
+    /// The halves' points lie in the pool in the order of the halves (`push` appends both,
+    /// and nothing reorders halves: the slice view lets a field change, not a half move), so
+    /// each kept half's points move down, never over points not yet moved.
     pub(crate) fn retain_alive(&mut self) {
         let mut next = 0usize;
         for k in 0..self.list.len() {
@@ -158,6 +163,10 @@ impl Halves {
                 continue;
             }
             let (at, len) = (self.list[k].at as usize, self.list[k].len as usize);
+            debug_assert!(
+                at >= next,
+                "halves reordered: half {k} at {at}, pool at {next}"
+            );
             self.pool.copy_within(at..at + len, next);
             // Below the old `at`: fits the u32 as that did.
             self.list[k].at = next as u32;

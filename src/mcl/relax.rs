@@ -14,7 +14,7 @@ use heapless::Vec;
 use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
 use crate::error::{Error, Limit};
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::mcl::insert::sorted_halves;
 use crate::mcl::matching::crosses_finished_boxed;
 use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
@@ -69,7 +69,7 @@ pub fn relax(
     for k in 0..halves.len() {
         // Never full: one box per half, and `halves` has the same capacity.
         boxes
-            .push(polyline::bbox(halves.points(k)))
+            .push(primitives::bbox(halves.points(k)))
             .map_err(|_| Limit::Halves.error())?;
     }
     for _ in 0..settings.relax_iterations {
@@ -241,10 +241,10 @@ fn try_move(
             halves[p].on_bisector = Some(nu);
         }
     }
-    boxes[e] = polyline::bbox(&a);
+    boxes[e] = primitives::bbox(&a);
     halves.set_points(e, &a);
     if let (Some(p), Some(b)) = (partner, b.as_mut()) {
-        boxes[p] = polyline::bbox(b);
+        boxes[p] = primitives::bbox(b);
         halves.set_points(p, b);
     }
     true

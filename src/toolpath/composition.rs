@@ -2,7 +2,7 @@
 //! distance along it (paper, section 3).
 
 use crate::config::CHANNELS;
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polyline, primitives, Point};
 use crate::{Material, Plan, Slice, Target};
 
 /// `(1 - t) a + t b`, channel by channel; exactly `a` at `t = 0` and `b` at `t = 1`.
@@ -83,7 +83,7 @@ impl<'a> BlendedField<'a> {
         let mut boxes = [(Point::default(), Point::default()); crate::config::MAX_MCLS];
         // One slot per MCL: `plan.mcls` holds at most MAX_MCLS, so none is left out.
         for (slot, m) in boxes.iter_mut().zip(plan.mcls.iter()) {
-            *slot = polyline::bbox(&plan.points(m));
+            *slot = primitives::bbox(&plan.points(m));
         }
         BlendedField { slice, plan, boxes }
     }

@@ -2,7 +2,7 @@
 //! between its neighbouring MCLs, the road's width and place in it, and the meander that fills
 //! a band wider than the widest road.
 
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polygon, primitives, Point};
 use crate::toolpath::composition::along;
 use crate::toolpath::zigzag::EDGE_MARGIN;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -280,7 +280,7 @@ fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, o
             if m == fan.me
                 && (seg[0].dist(p) < 2.0 * w
                     || seg[1].dist(p) < 2.0 * w
-                    || polyline::closest_on_segment(seg[0], seg[1], p).0.dist(p) < 1e-3)
+                    || primitives::closest_on_segment(seg[0], seg[1], p).0.dist(p) < 1e-3)
             {
                 continue;
             }

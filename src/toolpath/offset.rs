@@ -30,7 +30,6 @@ mod trace;
 mod walk;
 
 use super::despike::{finish, Despike};
-use core::ops::Range;
 
 use heapless::Vec;
 
@@ -38,8 +37,7 @@ use crate::config::{CONTOUR_POINTS, MAX_LOOPS, MAX_SITES};
 use crate::digest::Fnv;
 use crate::field::GridMemory;
 use crate::geometry::{polygon, Grid, Point};
-use crate::toolpath::composition::BlendedField;
-use crate::toolpath::{emit_move, PathSink, Vertex};
+use crate::toolpath::PathSink;
 use crate::{Error, Limit, Material, Plan, Settings, Slice};
 
 /// How far beyond the keep-out curve the first turn lies, mm: the chords of a turn may cut
@@ -150,7 +148,8 @@ const RUN: usize = 16;
 /// Runs of all the loops' points.
 const RUNS: usize = CONTOUR_POINTS.div_ceil(RUN);
 
-/// The offset spiral's working memory (about 200 KiB: the distance grid and the loops), meant
+/// The offset spiral's working memory (127 KiB on a controller: the loops and their joins;
+/// the distance grid is a lent [`GridMemory`]), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
 ///
 /// ```
@@ -197,7 +196,7 @@ pub struct OffsetSpiral {
     queue: Vec<u16, MAX_LOOPS>,
     /// The bridge gaps [`find_site`](Self::find_site) tries: [`BRIDGE_GAPS`] from this index
     /// on. An index, not a slice: a pointer would make the initial value non-zero, and the
-    /// firmware's static (200 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
+    /// firmware's static (127 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
     gaps_from: u8,
     /// The slice the loops and joins above were prepared for (its [`Prepared`] key) and
     /// the figures of that preparation: [`build`](Self::build) on the same slice again

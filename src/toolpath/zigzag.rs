@@ -23,20 +23,19 @@
 mod emit;
 mod ends;
 
-use emit::*;
-use ends::*;
+use emit::{emit_arc, emit_mcl, inner_end};
+use ends::{end_point, even_out, find, open_pieces, Ends};
 
 use super::despike::{finish, Despike};
 use heapless::Vec;
 
 use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
-use crate::geometry::{polyline, Point};
+use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
-use crate::toolpath::composition::{along, mcl_end_materials};
-use crate::toolpath::meander::{band_at, meander, road_at, too_wide, Fan, Strokes, CHUNK};
-use crate::toolpath::{emit_move, PathSink, Vertex};
-use crate::{Error, Plan, Slice, Target};
+use crate::toolpath::meander::{Fan, CHUNK};
+use crate::toolpath::PathSink;
+use crate::{Error, Plan, Slice};
 
 const ENDS: usize = 2 * MAX_MCLS;
 /// Keep-out curves: one per hole, then the wall's.

@@ -1,9 +1,9 @@
-//! Proves the stack guard of the firmware (`stack.rs`): recurses until the stack reaches the
-//! guard region above the statics. The MPU faults on the first word written into it; the
-//! HardFault handler (the one the other firmwares have) closes the valves and prints
-//! `stack overflow: the stack reached its guard at ...`, and QEMU exits with failure.
-//! `host-sim/tests/mcu.rs` runs it and requires that line: an overflow is never silent and
-//! never writes over a static.
+//! Proves the stack guard of the firmware (`stack.rs`): recurses until the stack runs past its
+//! bottom into the MPU guard region below it. The MPU faults on the first word written there;
+//! the HardFault entry and handler the other firmwares have (valves first) print
+//! `stack overflow: the stack ran past its N bytes into the guard at ADDRESS`, and QEMU exits
+//! with failure. `host-sim/tests/mcu.rs` runs it and requires that line, and that a static
+//! kept the value `main` gave it: an overflow is never silent and never writes over a static.
 #![no_std]
 #![no_main]
 
@@ -19,8 +19,9 @@ mod link_board;
 #[allow(dead_code)]
 mod stack;
 
-/// A static just below the guard: it must keep its value through the overflow.
-static SENTINEL: AtomicU32 = AtomicU32::new(0x5AFE_5AFE);
+/// A static (above the stack, as every static): `main` sets it, the fault handler prints it,
+/// and it must have kept its value through the overflow.
+static SENTINEL: AtomicU32 = AtomicU32::new(0);
 
 #[entry]
 fn main() -> ! {
@@ -34,7 +35,11 @@ fn main() -> ! {
     if !stack::install_guard(&mut cp.MPU) {
         hprintln!("error: stack guard not aligned to its size");
         debug::exit(debug::EXIT_FAILURE);
+        #[allow(clippy::empty_loop)]
+        loop {}
     }
+    // Set at run time (an opaque value), so that the handler's read is a real load.
+    SENTINEL.store(core::hint::black_box(0x5AFE_5AFE), Ordering::SeqCst);
     let (start, end) = stack::guard();
     hprintln!(
         "guard {:#x}..{:#x}, statics {} bytes, room {} bytes",
@@ -63,16 +68,12 @@ fn dive(depth: u32) -> u32 {
     dive(depth + 1) + frame[(depth as usize + 1) % 1024] as u32
 }
 
-/// The HardFault handler, entered through `stack.rs`'s entry on a fresh stack (`sp` the
-/// faulting one): the valves first, then what happened (a stack overflow or the faulting
-/// address), and QEMU exits with failure.
-extern "C" fn on_hard_fault(sp: u32) -> ! {
-    link_board::shut_valves();
-    stack::fault_report(sp);
-    hprintln!("sentinel {:#x}", SENTINEL.load(Ordering::Relaxed));
-    debug::exit(debug::EXIT_FAILURE);
-    #[allow(clippy::empty_loop)]
-    loop {}
+/// The HardFault handler, entered on a fresh stack by `stack.rs`'s entry: the valves first,
+/// the report, then the sentinel's value.
+extern "C" fn on_hard_fault(sp: u32, pc: u32) -> ! {
+    stack::halt(sp, pc, link_board::shut_valves, || {
+        hprintln!("sentinel {:#x}", SENTINEL.load(Ordering::SeqCst))
+    })
 }
 
 #[panic_handler]

@@ -2,7 +2,10 @@
 //! bridge can be cut), a spanning tree of them from the outermost loop, and the relaxed
 //! joins for loops the strict search leaves alone.
 
-use super::*;
+use super::{capacity, wrap, OffsetSpiral, OffsetStats, Site, NONE, RELAXED_TOL, STRICT_TOL};
+use crate::config::MAX_SITES;
+use crate::{Error, Limit, Slice};
+use heapless::Vec;
 
 impl OffsetSpiral {
     /// A place where loop `a` (one level above) runs a road width from loop `b` for long

@@ -2,7 +2,10 @@
 //! their segments, a point at an arc length, the projection onto a loop, the loop below a
 //! point, and whether a stretch of a loop is free for a bridge.
 
-use super::*;
+use super::{capacity, distance, wrap, OffsetSpiral, RUN};
+use crate::geometry::{polygon, Point};
+use crate::{Error, Limit, Slice};
+use core::ops::Range;
 
 impl OffsetSpiral {
     pub(super) fn pts(&self, l: usize) -> &[Point] {
@@ -73,7 +76,7 @@ impl OffsetSpiral {
         let visit = |ks: Range<usize>, best: &mut (f32, f32, usize)| {
             for k in ks {
                 let (a, b) = (pts[k], pts[(k + 1) % n]);
-                let (q, t) = crate::geometry::polyline::closest_on_segment(a, b, p);
+                let (q, t) = crate::geometry::primitives::closest_on_segment(a, b, p);
                 let d = q.dist(p);
                 if d < best.1 || (d == best.1 && k < best.2) {
                     let sb = if k + 1 < n { arc[k + 1] } else { len };

@@ -2,7 +2,14 @@
 //! followed by marching squares, its points put onto the level exactly and refined where the
 //! grid is coarse for the curve, then simplified into a loop.
 
-use super::*;
+use super::{
+    capacity, distance, nearest, Loop, OffsetSpiral, OffsetStats, EDGE_BISECTIONS,
+    FIRST_TURN_MARGIN, MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, SIMPLIFY_TOL,
+};
+use crate::field::GridMemory;
+use crate::geometry::Point;
+use crate::{Error, Limit, Slice};
+use heapless::Vec;
 
 impl OffsetSpiral {
     /// Samples `D` on a grid over the wall, half a road width apart or coarser.
@@ -317,7 +324,7 @@ fn simplify_closed<const N: usize>(pts: &mut Vec<Point, N>, start: usize, tol: f
         while end + 1 < pts.len() && end + 1 - anchor <= 64 {
             let (a, b) = (pts[anchor], pts[end + 1]);
             let fits = (anchor + 1..=end).all(|m| {
-                let (q, _) = crate::geometry::polyline::closest_on_segment(a, b, pts[m]);
+                let (q, _) = crate::geometry::primitives::closest_on_segment(a, b, pts[m]);
                 q.dist(pts[m]) <= tol
             });
             if !fits {

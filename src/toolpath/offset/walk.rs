@@ -2,7 +2,16 @@
 //! across the bridges, widening a turn into the gap it leaves before a ridge, with the
 //! composition of the blended field at every vertex.
 
-use super::*;
+use super::{
+    capacity, nearest, wrap, Frame, OffsetSpiral, OffsetStats, EDGE_DIRECTIONS, FIRST_TURN_MARGIN,
+    LAID_TOL, NONE, RIDGE_MARGIN, RIDGE_STEPS, RIDGE_TOL_PER_ROAD, WIDEN_TRIES, WIDTH_STEP,
+};
+use crate::config::MAX_LOOPS;
+use crate::geometry::{polygon, Point};
+use crate::toolpath::composition::BlendedField;
+use crate::toolpath::{emit_move, PathSink, Vertex};
+use crate::{Error, Limit, Plan, Slice};
+use heapless::Vec;
 
 impl OffsetSpiral {
     /// Whether a laid loop of level `level` passes within `tol` of `q`.
@@ -23,7 +32,7 @@ impl OffsetSpiral {
                 polygon::bbox_distance(b, q) <= tol + polygon::rounding_slack(q, b)
                     && ks.into_iter().any(|k| {
                         let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
-                        crate::geometry::polyline::closest_on_segment(a, b, q)
+                        crate::geometry::primitives::closest_on_segment(a, b, q)
                             .0
                             .dist(q)
                             <= tol

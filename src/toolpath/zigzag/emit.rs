@@ -1,7 +1,16 @@
 //! Depositing the zigzag: a road out and back along each MCL (banded, or a meander where the
 //! fan outgrows the widest road), and the arcs along the keep-out curves between MCL ends.
 
-use super::*;
+use super::ends::Ends;
+use super::{EDGE_MARGIN, END_STEPS, NONE};
+use crate::error::Limit;
+use crate::geometry::Point;
+use crate::keep_out::KeepOut;
+use crate::toolpath::composition::{along, mcl_end_materials};
+use crate::toolpath::meander::{band_at, meander, road_at, too_wide, Fan, Strokes};
+use crate::toolpath::{emit_move, PathSink, Vertex};
+use crate::{Error, Plan, Slice};
+use heapless::Vec;
 
 /// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
 /// neighbouring MCLs ([`neighbours`]), `spliced` the curve of each end (`from` end first) that

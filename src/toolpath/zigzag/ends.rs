@@ -2,7 +2,13 @@
 //! each end lies, the arcs pairing consecutive ends, the separate pieces they make (union-find),
 //! and the parity fix that leaves MCLs out until at most two curves are odd.
 
-use super::*;
+use super::{CURVES, ENDS, NONE};
+use crate::config::MAX_MCLS;
+use crate::error::Limit;
+use crate::geometry::{polyline, Point};
+use crate::keep_out::KeepOut;
+use crate::{Error, Plan, Slice, Target};
+use heapless::Vec;
 
 /// The curves (hole index, or `holes` for the wall) of the two ends of MCL `k`.
 pub(super) fn curve_pair(plan: &Plan, k: usize, holes: usize) -> (usize, usize) {
