@@ -26,6 +26,7 @@ use hollowpath::toolpath::DigestSink;
 use hollowpath::{Planner, Settings, Slice};
 use static_cell::{ConstStaticCell, StaticCell};
 
+mod fault;
 mod link_board;
 mod motion_bench;
 mod stack;
@@ -321,15 +322,5 @@ fn bench_slice(
 /// faulting ones): the valves first, then what happened (a stack overflow or the faulting
 /// address), and QEMU exits with failure.
 extern "C" fn on_hard_fault(sp: u32, pc: u32) -> ! {
-    stack::halt(sp, pc, link_board::shut_valves, || {})
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    // The valves first (semihosting may hang without a debugger).
-    link_board::shut_valves();
-    hprintln!("panic: {}", info);
-    debug::exit(debug::EXIT_FAILURE);
-    #[allow(clippy::empty_loop)]
-    loop {}
+    fault::halt(sp, pc, || {})
 }

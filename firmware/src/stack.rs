@@ -12,7 +12,7 @@
 //! address from the exception frame, then moves the stack pointer back to the top of the
 //! stack, so that the handler has a stack even when the fault was the stack running out (its
 //! frames overwrite `main`'s, which never runs again), and calls the firmware's
-//! `on_hard_fault(sp, pc)`, which closes the valves and says what happened ([`halt`]).
+//! `on_hard_fault(sp, pc)`, which closes the valves and says what happened (`fault.rs`).
 //!
 //! The guard is the 64 KiB below RAM: on QEMU's mps2-an386 nothing is there. On an STM32
 //! that range can hold system memory (the bootloader, the unique ID, calibration values):
@@ -147,26 +147,6 @@ pub fn guard_fault(sp: u32) -> Option<usize> {
     } else {
         None
     }
-}
-
-/// The end of every fault, from a firmware's `on_hard_fault(sp, pc)`: the valves shut first
-/// (`shut_valves`), then the report (a stack overflow into the guard, or the faulting
-/// instruction's address `pc`, 0 where the frame could not be read), then `also` (a test's
-/// extra line), and QEMU exits with failure.
-pub fn halt(sp: u32, pc: u32, shut_valves: fn(), also: impl FnOnce()) -> ! {
-    shut_valves();
-    match guard_fault(sp) {
-        Some(at) => cortex_m_semihosting::hprintln!(
-            "stack overflow: the stack ran past its {} bytes into the guard at {:#x}",
-            room(),
-            at
-        ),
-        None => cortex_m_semihosting::hprintln!("hard fault at {:#x} (sp {:#x})", pc, sp),
-    }
-    also();
-    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    #[allow(clippy::empty_loop)]
-    loop {}
 }
 
 /// The highest peak [`peak`] has measured (paint is lost each time the RAM is painted again).

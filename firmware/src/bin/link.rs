@@ -45,6 +45,8 @@ use hollowpath::link::message::Version;
 use hollowpath::motion::stepper::before;
 use static_cell::ConstStaticCell;
 
+#[path = "../fault.rs"]
+mod fault;
 #[path = "../link_board.rs"]
 mod link_board;
 #[path = "../mps2.rs"]
@@ -329,15 +331,5 @@ fn fail(what: &str) -> ! {
 /// faulting ones): the valves first, then what happened (a stack overflow or the faulting
 /// address), and QEMU exits with failure.
 extern "C" fn on_hard_fault(sp: u32, pc: u32) -> ! {
-    stack::halt(sp, pc, link_board::shut_valves, || {})
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    // Valves first.
-    link_board::shut_valves();
-    hprintln!("panic: {}", info);
-    debug::exit(debug::EXIT_FAILURE);
-    #[allow(clippy::empty_loop)]
-    loop {}
+    fault::halt(sp, pc, || {})
 }

@@ -12,6 +12,8 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 
+#[path = "../fault.rs"]
+mod fault;
 #[path = "../link_board.rs"]
 #[allow(dead_code)]
 mod link_board;
@@ -71,16 +73,7 @@ fn dive(depth: u32) -> u32 {
 /// The HardFault handler, entered on a fresh stack by `stack.rs`'s entry: the valves first,
 /// the report, then the sentinel's value.
 extern "C" fn on_hard_fault(sp: u32, pc: u32) -> ! {
-    stack::halt(sp, pc, link_board::shut_valves, || {
+    fault::halt(sp, pc, || {
         hprintln!("sentinel {:#x}", SENTINEL.load(Ordering::SeqCst))
     })
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    link_board::shut_valves();
-    hprintln!("panic: {}", info);
-    debug::exit(debug::EXIT_FAILURE);
-    #[allow(clippy::empty_loop)]
-    loop {}
 }
