@@ -8,18 +8,17 @@
 //! ## Two sets of capacities, one plan
 //!
 //! The default sizes are the MCU build's: the whole [`Planner`](crate::Planner) is about
-//! 250 KiB and is meant to live in a `static`, the offset spiral's working memory 127 KiB, a
+//! 250 KiB and is meant to live in a `static`, the offset spiral's working memory 97 KiB, a
 //! [`Slice`](crate::Slice) 30 KiB; one layer's path buffer ([`PATH_VERTICES`]), where a
 //! firmware keeps one, another 224 KiB. They hold 8 hollow features of up to 256 vertices in
 //! about 75 x 75 mm at 0.4 mm roads. The QEMU firmware links in the 640 KiB of
-//! `firmware/memory.x` (its bench needs 462 KiB with its stack, the link firmware about 500
-//! KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB
+//! `firmware/memory.x` (its bench needs 434 KiB with its stack, the link firmware 466 KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB
 //! (128 KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
 //! (about 150 x 150 mm at 0.4 mm roads). The whole `Planner` is then about 3.6 MiB, the
-//! offset spiral's working memory 1.2 MiB and a [`Slice`](crate::Slice) 3.3 MiB: keep them on
+//! offset spiral's working memory 1 MiB and a [`Slice`](crate::Slice) 3.3 MiB: keep them on
 //! the heap, and build and run them on a thread with a large stack (host-sim's
 //! `run_on_large_stack`), as the layers' working sets are on the stack too.
 //!
@@ -36,7 +35,7 @@
 //! | feature's keep-out curve | a view of the feature | 24 (40 on a 64-bit host) |
 //! | field grid node | `Planner` (label, `u`; lent to the offset spiral's distances and marks once the MCLs are traced) | 5 (80 KiB [320 KiB]) |
 //! | boundary node | `Planner` | 8 (24 KiB [256 KiB]) |
-//! | offset-spiral contour point | `OffsetSpiral` (point, arc length, a 16th of a run's box) | 13 (104 KiB [832 KiB]) |
+//! | offset-spiral contour point | `OffsetSpiral` (point; a 16th of a run's box and of its first point's arc length) | 9.25 (74 KiB [592 KiB]) |
 //! | MCL half | `Planner` (40, and 8 a point in the pool of [`HALF_POOL_POINTS`], 16 a half) | 168 (105 KiB [2.6 MiB]) |
 //!
 //! `tests/capacity.rs` in host-sim prints how full each buffer gets on the reference slices,

@@ -148,7 +148,7 @@ const RUN: usize = 16;
 /// Runs of all the loops' points.
 const RUNS: usize = CONTOUR_POINTS.div_ceil(RUN);
 
-/// The offset spiral's working memory (127 KiB on a controller: the loops and their joins;
+/// The offset spiral's working memory (97 KiB on a controller: the loops and their joins;
 /// the distance grid is a lent [`GridMemory`]), meant
 /// to live in a `static` on the MCU like the [`Planner`](crate::Planner).
 ///
@@ -185,7 +185,11 @@ pub struct OffsetSpiral {
     /// [`prepare`](Self::prepare) (the planner's field's, on a controller).
     grid: Grid,
     points: Vec<Point, CONTOUR_POINTS>,
-    arc: Vec<f32, CONTOUR_POINTS>,
+    /// The arc length along its loop of the point `RUN r` (the first of run `r`), for the runs
+    /// whose first point is not the first of its loop: a point's arc length is this plus the
+    /// segments after it, summed in the same order as when the loop was traced
+    /// ([`arc_of`](Self::arc_of)), so a run's lengths cost 4 bytes, not 64.
+    run_arc: Vec<f32, RUNS>,
     /// The box around the segments starting at points `RUN r .. RUN (r + 1)` of `points`
     /// (each segment's end included; a run two loops share holds both loops' segments): a
     /// search along a loop skips the runs whose box is too far.
@@ -196,7 +200,7 @@ pub struct OffsetSpiral {
     queue: Vec<u16, MAX_LOOPS>,
     /// The bridge gaps [`find_site`](Self::find_site) tries: [`BRIDGE_GAPS`] from this index
     /// on. An index, not a slice: a pointer would make the initial value non-zero, and the
-    /// firmware's static (127 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
+    /// firmware's static (97 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
     gaps_from: u8,
     /// The slice the loops and joins above were prepared for (its [`Prepared`] key) and
     /// the figures of that preparation: [`build`](Self::build) on the same slice again
@@ -309,7 +313,7 @@ impl OffsetSpiral {
                 ny: 0,
             },
             points: Vec::new(),
-            arc: Vec::new(),
+            run_arc: Vec::new(),
             runs: Vec::new(),
             loops: Vec::new(),
             sites: Vec::new(),

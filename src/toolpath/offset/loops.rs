@@ -13,19 +13,82 @@ impl OffsetSpiral {
         &self.points[lp.start as usize..(lp.start + lp.len) as usize]
     }
 
-    pub(super) fn arcs(&self, l: usize) -> &[f32] {
-        let lp = &self.loops[l];
-        &self.arc[lp.start as usize..(lp.start + lp.len) as usize]
+    /// The arc length along loop `l` of its point `k`: from the first point of `k`'s run (or
+    /// of the loop) on, the segments summed in the order the trace summed them, so the same
+    /// bits as a table of every point's arc length would hold.
+    pub(super) fn arc_of(&self, l: usize, k: usize) -> f32 {
+        let start = self.loops[l].start as usize;
+        let g = start + k;
+        let from = (g / RUN * RUN).max(start);
+        let mut s = if from == start {
+            0.0
+        } else {
+            self.run_arc[g / RUN]
+        };
+        for m in from + 1..=g {
+            s += self.points[m - 1].dist(self.points[m]);
+        }
+        s
+    }
+
+    /// The number of leading points of loop `l` whose arc length satisfies `pred` (true up to
+    /// some point, false after: `partition_point` over the arc lengths), and the arc length
+    /// of the last of them (0 if none): the runs' first points, searched by halves, narrow it
+    /// to one run, which is walked.
+    pub(super) fn arc_partition(&self, l: usize, pred: impl Fn(f32) -> bool) -> (usize, f32) {
+        let (start, n) = (self.loops[l].start as usize, self.loops[l].len as usize);
+        let first_of = |r: usize| (r * RUN).max(start);
+        // The arc length of run `r`'s first point in the loop (0 for the loop's first point).
+        let head = |r: usize| {
+            if first_of(r) == start {
+                0.0
+            } else {
+                self.run_arc[r]
+            }
+        };
+        // The runs whose first point satisfies `pred` are a prefix (`pred` is monotone and the
+        // arc lengths grow): find its end.
+        let (mut lo, mut hi) = (start / RUN, (start + n).div_ceil(RUN));
+        let first = lo;
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if pred(head(mid)) {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        if lo == first {
+            return (0, 0.0);
+        }
+        let r = lo - 1;
+        let to = ((r + 1) * RUN).min(start + n);
+        let (mut k, mut s) = (first_of(r), head(r));
+        while k + 1 < to {
+            let next = s + self.points[k].dist(self.points[k + 1]);
+            if !pred(next) {
+                break;
+            }
+            s = next;
+            k += 1;
+        }
+        (k + 1 - start, s)
     }
 
     /// The point of loop `l` at arc length `s`.
     pub(super) fn at(&self, l: usize, s: f32) -> Point {
-        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let pts = self.pts(l);
         let len = self.loops[l].length;
         let s = wrap(s, len);
-        let k = arc.partition_point(|&a| a <= s).max(1) - 1;
+        // The last point at or before `s` (the first, if none is: `s` is never below 0 here).
+        let (count, sa) = self.arc_partition(l, |a| a <= s);
+        let k = count.max(1) - 1;
         let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
-        let (sa, sb) = (arc[k], if k + 1 < arc.len() { arc[k + 1] } else { len });
+        let sb = if k + 1 < pts.len() {
+            sa + a.dist(b)
+        } else {
+            len
+        };
         let t = if sb > sa { (s - sa) / (sb - sa) } else { 0.0 };
         a.lerp(b, t.clamp(0.0, 1.0))
     }
@@ -69,18 +132,18 @@ impl OffsetSpiral {
     /// distances, the first along the loop. The run of segments whose box is nearest is
     /// measured first, then the runs whose box is no farther than the best so far.
     pub(super) fn project(&self, l: usize, p: Point) -> (f32, f32) {
-        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let pts = self.pts(l);
         let len = self.loops[l].length;
         let n = pts.len();
-        // (arc length, distance, segment)
+        // (parameter along the segment, distance, segment): the arc length is measured once,
+        // for the segment that wins.
         let visit = |ks: Range<usize>, best: &mut (f32, f32, usize)| {
             for k in ks {
                 let (a, b) = (pts[k], pts[(k + 1) % n]);
                 let (q, t) = crate::geometry::primitives::closest_on_segment(a, b, p);
                 let d = q.dist(p);
                 if d < best.1 || (d == best.1 && k < best.2) {
-                    let sb = if k + 1 < n { arc[k + 1] } else { len };
-                    *best = (arc[k] + t * (sb - arc[k]), d, k);
+                    *best = (t, d, k);
                 }
             }
         };
@@ -99,7 +162,17 @@ impl OffsetSpiral {
                 visit(ks, &mut best);
             }
         }
-        (best.0, best.1)
+        let (t, d, k) = best;
+        if k == usize::MAX {
+            return (0.0, d);
+        }
+        let sa = self.arc_of(l, k);
+        let sb = if k + 1 < n {
+            sa + pts[k].dist(pts[k + 1])
+        } else {
+            len
+        };
+        (sa + t * (sb - sa), d)
     }
 
     /// The loop one level below `l` that the point `p` of `l` faces a road width away, with

@@ -4,7 +4,7 @@
 
 use super::{
     capacity, distance, nearest, Loop, OffsetSpiral, OffsetStats, EDGE_BISECTIONS,
-    FIRST_TURN_MARGIN, MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, SIMPLIFY_TOL,
+    FIRST_TURN_MARGIN, MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, RUN, SIMPLIFY_TOL,
 };
 use crate::field::GridMemory;
 use crate::geometry::Point;
@@ -38,7 +38,7 @@ impl OffsetSpiral {
         let w = slice.settings().road_width;
         let top = mem.values.iter().fold(0.0f32, |a, &b| a.max(b));
         self.points.clear();
-        self.arc.clear();
+        self.run_arc.clear();
         self.runs.clear();
         self.loops.clear();
         let mut k = 0u16;
@@ -236,27 +236,31 @@ impl OffsetSpiral {
         let len = simplify_closed(&mut self.points, start, SIMPLIFY_TOL);
         self.points.truncate(start + len);
         stats.loops += 1;
-        // Arc lengths and box.
+        // Arc lengths (kept at the first point of every run) and box.
         let pts = &self.points[start..];
         let mut s = 0.0;
         let mut bbox = (pts[0], pts[0]);
-        self.arc.truncate(start);
         for (m, &p) in pts.iter().enumerate() {
             if m > 0 {
                 s += pts[m - 1].dist(p);
+                if (start + m) % RUN == 0 {
+                    let r = (start + m) / RUN;
+                    if self.run_arc.len() <= r {
+                        self.run_arc
+                            .resize(r + 1, 0.0)
+                            .map_err(|_| capacity(Limit::ContourPoints))?;
+                    }
+                    self.run_arc[r] = s;
+                }
             }
             bbox = (
                 Point::new(bbox.0.x.min(p.x), bbox.0.y.min(p.y)),
                 Point::new(bbox.1.x.max(p.x), bbox.1.y.max(p.y)),
             );
-            self.arc
-                .push(s)
-                .map_err(|_| capacity(Limit::ContourPoints))?;
         }
         let length = s + pts[pts.len() - 1].dist(pts[0]);
         if pts.len() < 3 || length < MIN_LOOP_ROADS * w {
             self.points.truncate(start);
-            self.arc.truncate(start);
             stats.dropped += 1;
             return Ok(());
         }

@@ -84,21 +84,22 @@ impl OffsetSpiral {
         dist: f32,
         forward: bool,
     ) -> Result<(), Error> {
-        let (pts, arc) = (self.pts(l), self.arcs(l));
+        let pts = self.pts(l);
         let len = self.loops[l].length;
         let n = pts.len();
         let s = wrap(s, len);
         let mut k = if forward {
-            arc.partition_point(|&a| a <= s) % n
+            self.arc_partition(l, |a| a <= s).0 % n
         } else {
-            (arc.partition_point(|&a| a < s) + n - 1) % n
+            (self.arc_partition(l, |a| a < s).0 + n - 1) % n
         };
         let mut prev = self.at(l, s);
         for _ in 0..n {
+            let arc_k = self.arc_of(l, k);
             let along = if forward {
-                wrap(arc[k] - s, len)
+                wrap(arc_k - s, len)
             } else {
-                wrap(s - arc[k], len)
+                wrap(s - arc_k, len)
             };
             if along >= dist - 1e-5 {
                 break;
