@@ -12,8 +12,9 @@
 //! [`Slice`](crate::Slice) 30 KiB; one layer's path buffer ([`PATH_VERTICES`]), where a
 //! firmware keeps one, another 224 KiB. They hold 8 hollow features of up to 256 vertices in
 //! about 75 x 75 mm at 0.4 mm roads. The QEMU firmware links in the 640 KiB of
-//! `firmware/memory.x` (its bench needs 433 KiB with its stack, the link firmware 465 KiB), while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB
-//! (128 KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
+//! `firmware/memory.x` (its bench needs 433 KiB with its stack, the link firmware 465 KiB),
+//! while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB (128
+//! KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes

@@ -901,11 +901,27 @@ impl Slice {
     /// The distance from `p` to the nearest feature (a hole or the wall), positive in the
     /// material.
     pub fn clearance(&self, p: Point) -> f32 {
-        // The nearest hole only, where it is nearer than the wall (no hole index is skipped:
-        // `holes.len()` is none of them).
-        let wall = self.wall_clearance(p);
-        self.nearest_other_hole(p, self.holes.len(), wall)
-            .map_or(wall, |(_, d)| d)
+        self.nearest_feature(p).1
+    }
+
+    /// The feature nearest to `p` ([`feature_at`](Self::feature_at)'s numbering: the wall is
+    /// `holes().len()`), the distance to it (positive in the material) and its nearest
+    /// boundary point (as [`Feature::nearest`] gives it, whose gradient points into the
+    /// material for a hole and out of it for the wall). The wall first, then every hole whose
+    /// box is nearer than the best so far; of equal distances the first.
+    pub fn nearest_feature(&self, p: Point) -> (usize, f32, Nearest) {
+        let wall = self.wall.nearest(p);
+        let mut best = (self.holes.len(), -wall.distance, wall);
+        for (k, h) in self.holes.iter().enumerate() {
+            if polygon::bbox_distance(h.bbox, p) >= best.1 {
+                continue;
+            }
+            let n = h.nearest(p);
+            if n.distance < best.1 {
+                best = (k, n.distance, n);
+            }
+        }
+        best
     }
 
     /// Whether a road `width` wide centred at `p` stays in the material: inside the wall and

@@ -36,7 +36,7 @@ use heapless::Vec;
 use crate::config::{CONTOUR_POINTS, MAX_LOOPS, MAX_SITES};
 use crate::digest::Fnv;
 use crate::field::GridMemory;
-use crate::geometry::{polygon, Grid, Point};
+use crate::geometry::{Grid, Point};
 use crate::toolpath::PathSink;
 use crate::{Error, Limit, Material, Plan, Settings, Slice};
 
@@ -240,20 +240,11 @@ impl Default for OffsetSpiral {
 }
 
 /// The feature nearest to `p` (a hole index, or `holes` for the wall), the distance `D` to it
-/// (positive in the material) and its gradient.
+/// (positive in the material) and its gradient (into the material).
 fn nearest(slice: &Slice, p: Point) -> (usize, f32, Point) {
-    let nw = slice.wall().nearest(p);
-    let mut best = (slice.holes().len(), -nw.distance, -nw.gradient(p));
-    for (k, h) in slice.holes().iter().enumerate() {
-        if polygon::bbox_distance(h.bbox(), p) >= best.1 {
-            continue;
-        }
-        let n = h.nearest(p);
-        if n.distance < best.1 {
-            best = (k, n.distance, n.gradient(p));
-        }
-    }
-    best
+    let (k, d, n) = slice.nearest_feature(p);
+    let g = n.gradient(p);
+    (k, d, if k == slice.holes().len() { -g } else { g })
 }
 
 /// The distance `D` from `p` to the nearest feature (positive in the material), its gradient,
