@@ -105,6 +105,9 @@ impl Cells {
     }
 
     /// Traces every bisector of the labelled field.
+    // Not inlined: its working set stays in a frame of its own, which the planner's other
+    // phases then share instead of adding to (`Planner::plan`'s frame).
+    #[inline(never)]
     pub fn build(
         &mut self,
         slice: &Slice,

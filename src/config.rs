@@ -12,7 +12,7 @@
 //! [`Slice`](crate::Slice) 30 KiB; one layer's path buffer ([`PATH_VERTICES`]), where a
 //! firmware keeps one, another 224 KiB. They hold 8 hollow features of up to 256 vertices in
 //! about 75 x 75 mm at 0.4 mm roads. The QEMU firmware links in the 640 KiB of
-//! `firmware/memory.x` (its bench needs 433 KiB with its stack, the link firmware 465 KiB),
+//! `firmware/memory.x` (its bench needs 429 KiB with its stack, the link firmware 461 KiB),
 //! while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB (128
 //! KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
 //!

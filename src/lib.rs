@@ -95,9 +95,11 @@
 //!   spiral's distance grid is the same memory, never a second grid;
 //! * the MCL halves keep their points in one pool ([`mcl::Halves`]), a half taking the points
 //!   it has, not room for the most a half may have;
-//! * the keep-out curves are views of their features (the arc lengths are the feature's),
-//!   and the layers' larger working sets (the zigzag's ends, the spiral's walk) sit in frames
-//!   of their own, so that the zigzag's and the spiral's share the stack.
+//! * the keep-out curves are views of their features (the arc lengths are the feature's), and
+//!   the offset spiral keeps one arc length per run of 16 loop points, not one per point;
+//! * the phases' larger working sets (the bisector seeds, matching, relaxation; the zigzag's
+//!   ends, the spiral's walk) sit in frames of their own, which the phases then share on the
+//!   stack instead of adding them up.
 //!
 //! The capacities (and so the RAM) still grow with the slice, not with its largest cell: the
 //! field, the halves and the spiral's loops are the whole slice's. Planning cell by cell is

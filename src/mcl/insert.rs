@@ -34,6 +34,9 @@ const _: () = assert!(MAX_REFINE_DEPTH <= u8::MAX as u32);
 const MIN_START_GAP_PER_MIN_WIDTH: f32 = 0.9;
 
 /// Traces the halves of every hole into `halves` (cleared first).
+// Not inlined: its working set stays in a frame of its own, which the planner's other
+// phases then share instead of adding to (`Planner::plan`'s frame).
+#[inline(never)]
 pub fn insert(
     slice: &Slice,
     field: &Field,

@@ -62,6 +62,9 @@ struct Match {
 }
 
 /// Matches across every bisector of `cells`; removes the unmatched bisector halves.
+// Not inlined: its working set stays in a frame of its own, which the planner's other
+// phases then share instead of adding to (`Planner::plan`'s frame).
+#[inline(never)]
 pub fn match_all(
     slice: &Slice,
     cells: &Cells,

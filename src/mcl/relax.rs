@@ -54,6 +54,9 @@ fn ring_neighbours(halves: &[Half], holes: usize) -> Result<Vec<(u16, u16), MAX_
 }
 
 /// Relaxes and thins the ends of `halves`.
+// Not inlined: its working set stays in a frame of its own, which the planner's other
+// phases then share instead of adding to (`Planner::plan`'s frame).
+#[inline(never)]
 pub fn relax(
     slice: &Slice,
     cells: &Cells,
