@@ -4,7 +4,7 @@
 //! and grows down towards the start of RAM. The [`GUARD`] bytes below it are an MPU region
 //! no code may read or write ([`install_guard`]): a stack that grows past its bottom faults at
 //! once, however large the frame that overflows (up to the guard's 64 KiB; the largest frame
-//! of the firmwares is the planner's, 37 KiB), and can never reach a static above it.
+//! of the firmwares is the zigzag's, 31 KiB), and can never reach a static above it.
 //!
 //! **Fault entry.** The MPU fault escalates to HardFault (MemManage is left disabled), which
 //! runs with the MPU off (`HFNMIENA` clear). Its entry (`HardFault`, in assembly) takes the
