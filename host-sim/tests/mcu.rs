@@ -259,3 +259,51 @@ fn a_stack_overflow_is_caught_by_the_guard_and_reported() {
         "a static was overwritten:\n{out}"
     );
 }
+
+/// Any other fault takes the same path: the `fault_drill` firmware opens a valve and executes
+/// an undefined instruction; the HardFault handler shuts the valve first and reports the
+/// faulting instruction's address, read from the exception frame (`firmware/src/fault.rs`,
+/// `stack.rs`), and QEMU exits with failure.
+#[test]
+fn a_fault_shuts_the_valves_and_names_the_faulting_instruction() {
+    if !qemu::available("fault drill") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::firmware(Some("fault_drill"));
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
+        panic!(
+            "the fault went unnoticed (QEMU still runs):\n{}",
+            q.stdout()
+        )
+    });
+    let out = q.stdout();
+    println!("{out}");
+    assert!(!status.success(), "the fault ended in success:\n{out}");
+    let hex = |line: &str, after: &str| {
+        let rest = line.split(after).nth(1).unwrap_or_else(|| panic!("{line}"));
+        let digits: String = rest.chars().take_while(|c| c.is_ascii_hexdigit()).collect();
+        u32::from_str_radix(&digits, 16).unwrap()
+    };
+    let find = |prefix: &str| {
+        out.lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no `{prefix}` in:\n{out}"))
+            .to_string()
+    };
+    let opened = find("valve 0 open: ");
+    assert!(opened.contains("valves shut false"), "{opened}");
+    let drill = hex(&opened, "drill at 0x");
+    let fault = find("hard fault at 0x");
+    let pc = hex(&fault, "hard fault at 0x");
+    // The faulting instruction is the drill's `udf`, after at most its prologue.
+    assert!(
+        (drill..drill + 16).contains(&pc),
+        "{fault} (drill at {drill:#x})"
+    );
+    assert_eq!(
+        find("after the fault: "),
+        "after the fault: valves shut true"
+    );
+}
