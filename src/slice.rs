@@ -875,23 +875,6 @@ impl Slice {
         best
     }
 
-    /// The nearest hole other than `i` with its distance, if it is nearer than `limit`.
-    pub fn nearest_other_hole(&self, p: Point, i: usize, limit: f32) -> Option<(usize, f32)> {
-        let mut best: Option<(usize, f32)> = None;
-        let mut bound = limit;
-        for (k, h) in self.holes.iter().enumerate() {
-            if k == i || polygon::bbox_distance(h.bbox, p) >= bound {
-                continue;
-            }
-            let d = h.signed_distance(p);
-            if d < bound {
-                bound = d;
-                best = Some((k, d));
-            }
-        }
-        best
-    }
-
     /// Whether `p` is in the printable region: inside the wall and outside every hole, half a
     /// road width from each (with a tolerance `tol`).
     pub fn is_printable(&self, p: Point, tol: f32) -> bool {

@@ -232,21 +232,9 @@ fn firmware_images_fit_the_boards_flash_and_keep_working_memory_out_of_it() {
 /// kept its value. The `stack_guard` firmware recurses until that happens.
 #[test]
 fn a_stack_overflow_is_caught_by_the_guard_and_reported() {
-    if !qemu::available("stack guard") {
+    let Some(out) = failing_firmware("stack_guard", "the overflow") else {
         return;
-    }
-    let _one = qemu::lock();
-    let elf = qemu::firmware(Some("stack_guard"));
-    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
-    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
-        panic!(
-            "the overflow went unnoticed (QEMU still runs):\n{}",
-            q.stdout()
-        )
-    });
-    let out = q.stdout();
-    println!("{out}");
-    assert!(!status.success(), "the overflow ended in success:\n{out}");
+    };
     let report = out
         .lines()
         .find(|l| l.starts_with("stack overflow: the stack ran past its "))
@@ -266,21 +254,9 @@ fn a_stack_overflow_is_caught_by_the_guard_and_reported() {
 /// `stack.rs`), and QEMU exits with failure.
 #[test]
 fn a_fault_shuts_the_valves_and_names_the_faulting_instruction() {
-    if !qemu::available("fault drill") {
+    let Some(out) = failing_firmware("fault_drill", "the fault") else {
         return;
-    }
-    let _one = qemu::lock();
-    let elf = qemu::firmware(Some("fault_drill"));
-    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
-    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
-        panic!(
-            "the fault went unnoticed (QEMU still runs):\n{}",
-            q.stdout()
-        )
-    });
-    let out = q.stdout();
-    println!("{out}");
-    assert!(!status.success(), "the fault ended in success:\n{out}");
+    };
     let hex = |line: &str, after: &str| {
         let rest = line.split(after).nth(1).unwrap_or_else(|| panic!("{line}"));
         let digits: String = rest.chars().take_while(|c| c.is_ascii_hexdigit()).collect();
@@ -306,4 +282,23 @@ fn a_fault_shuts_the_valves_and_names_the_faulting_instruction() {
         find("after the fault: "),
         "after the fault: valves shut true"
     );
+}
+
+/// Runs the firmware `bin`, which provokes `what` on purpose, to its end: it must end QEMU with
+/// failure (the fault handler's exit) within two minutes; its semihosting output, or `None`
+/// where QEMU is not installed.
+fn failing_firmware(bin: &str, what: &str) -> Option<String> {
+    if !qemu::available(what) {
+        return None;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::firmware(Some(bin));
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q
+        .wait_exit(Duration::from_secs(120))
+        .unwrap_or_else(|| panic!("{what} went unnoticed (QEMU still runs):\n{}", q.stdout()));
+    let out = q.stdout();
+    println!("{out}");
+    assert!(!status.success(), "{what} ended in success:\n{out}");
+    Some(out)
 }

@@ -17,18 +17,21 @@ impl OffsetSpiral {
     /// of the loop) on, the segments summed in the order the trace summed them, so the same
     /// bits as a table of every point's arc length would hold.
     pub(super) fn arc_of(&self, l: usize, k: usize) -> f32 {
-        let start = self.loops[l].start as usize;
-        let g = start + k;
-        let from = (g / RUN * RUN).max(start);
-        let mut s = if from == start {
-            0.0
-        } else {
-            self.run_arc[g / RUN]
-        };
+        let g = self.loops[l].start as usize + k;
+        let (from, mut s) = self.run_head(l, g / RUN);
         for m in from + 1..=g {
             s += self.points[m - 1].dist(self.points[m]);
         }
         s
+    }
+
+    /// The first point of run `r` in loop `l` (an index into `points`: the loop's own first
+    /// point for the run it starts in) and its arc length along the loop (0 for the loop's
+    /// first point).
+    fn run_head(&self, l: usize, r: usize) -> (usize, f32) {
+        let start = self.loops[l].start as usize;
+        let first = (r * RUN).max(start);
+        (first, if first == start { 0.0 } else { self.run_arc[r] })
     }
 
     /// The number of leading points of loop `l` whose arc length satisfies `pred` (true up to
@@ -37,22 +40,13 @@ impl OffsetSpiral {
     /// to one run, which is walked.
     pub(super) fn arc_partition(&self, l: usize, pred: impl Fn(f32) -> bool) -> (usize, f32) {
         let (start, n) = (self.loops[l].start as usize, self.loops[l].len as usize);
-        let first_of = |r: usize| (r * RUN).max(start);
-        // The arc length of run `r`'s first point in the loop (0 for the loop's first point).
-        let head = |r: usize| {
-            if first_of(r) == start {
-                0.0
-            } else {
-                self.run_arc[r]
-            }
-        };
         // The runs whose first point satisfies `pred` are a prefix (`pred` is monotone and the
         // arc lengths grow): find its end.
         let (mut lo, mut hi) = (start / RUN, (start + n).div_ceil(RUN));
         let first = lo;
         while lo < hi {
             let mid = lo + (hi - lo) / 2;
-            if pred(head(mid)) {
+            if pred(self.run_head(l, mid).1) {
                 lo = mid + 1;
             } else {
                 hi = mid;
@@ -63,7 +57,7 @@ impl OffsetSpiral {
         }
         let r = lo - 1;
         let to = ((r + 1) * RUN).min(start + n);
-        let (mut k, mut s) = (first_of(r), head(r));
+        let (mut k, mut s) = self.run_head(l, r);
         while k + 1 < to {
             let next = s + self.points[k].dist(self.points[k + 1]);
             if !pred(next) {
