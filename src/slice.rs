@@ -301,6 +301,15 @@ impl Feature {
         }
     }
 
+    /// The squared distance from `p` to the nearest box of the feature's chunks of edges: a
+    /// lower bound of the squared distance to its boundary.
+    pub fn nearest_box2(&self, p: Point) -> f32 {
+        self.chunks
+            .iter()
+            .map(|b| polygon::bbox_distance2(*b, p))
+            .fold(f32::INFINITY, |m, d| if d < m { d } else { m })
+    }
+
     /// Whether `p` is inside the polygon: [`polygon::contains`]'s even-odd crossing test,
     /// with the same answer, on the edges of the chunks whose box straddles `p`'s horizontal
     /// line right of `p` only. An edge flips the count only if one end is above `p.y` and the
@@ -890,18 +899,48 @@ impl Slice {
     /// The feature nearest to `p` ([`feature_at`](Self::feature_at)'s numbering: the wall is
     /// `holes().len()`), the distance to it (positive in the material) and its nearest
     /// boundary point (as [`Feature::nearest`] gives it, whose gradient points into the
-    /// material for a hole and out of it for the wall). The wall first, then every hole whose
-    /// box is nearer than the best so far; of equal distances the first.
+    /// material for a hole and out of it for the wall). Of equal distances the wall, then the
+    /// lower-numbered hole.
+    ///
+    /// The feature with the nearest box goes first (the wall's boxes are its chunks'), then
+    /// every other one whose box is within the best distance so far plus
+    /// [`polygon::rounding_slack`], so a feature skipped could neither win nor tie. A point
+    /// outside the wall is never nearer a hole than the wall (the holes lie inside it), so
+    /// the wall's chunk boxes bound its distance there too.
     pub fn nearest_feature(&self, p: Point) -> (usize, f32, Nearest) {
-        let wall = self.wall.nearest(p);
-        let mut best = (self.holes.len(), -wall.distance, wall);
-        for (k, h) in self.holes.iter().enumerate() {
-            if polygon::bbox_distance(h.bbox, p) >= best.1 {
+        let wall_id = self.holes.len();
+        // The wall's bound last, after the holes': one per feature, within the capacity.
+        let mut bounds: Vec<f32, { MAX_HOLES + 1 }> = Vec::new();
+        bounds.extend(
+            self.holes
+                .iter()
+                .map(|h| polygon::bbox_distance(h.bbox, p))
+                .chain(core::iter::once(hollowpath_fpu::sqrtf(
+                    self.wall.nearest_box2(p),
+                ))),
+        );
+        let measure = |k: usize| {
+            if k == wall_id {
+                let n = self.wall.nearest(p);
+                (-n.distance, n)
+            } else {
+                let n = self.holes[k].nearest(p);
+                (n.distance, n)
+            }
+        };
+        // The wall ranks before every hole among equal distances.
+        let rank = |k: usize| if k == wall_id { 0 } else { k + 1 };
+        let first = (0..wall_id).fold(wall_id, |m, k| if bounds[k] < bounds[m] { k } else { m });
+        let (d, n) = measure(first);
+        let mut best = (first, d, n);
+        let slack = polygon::rounding_slack(p, self.wall.bbox);
+        for k in (0..=wall_id).filter(|&k| k != first) {
+            if bounds[k] > best.1 + slack {
                 continue;
             }
-            let n = h.nearest(p);
-            if n.distance < best.1 {
-                best = (k, n.distance, n);
+            let (d, n) = measure(k);
+            if d < best.1 || (d == best.1 && rank(k) < rank(best.0)) {
+                best = (k, d, n);
             }
         }
         best

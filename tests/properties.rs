@@ -303,3 +303,51 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// `Slice::nearest_feature` measures the feature with the nearest box first and skips the
+    /// wall by its chunks' boxes; it must answer exactly as the plain search (the wall, then
+    /// every hole in order, a hole replacing the best only when strictly nearer): the same
+    /// feature, the same bits of distance and point, the same edge. Points anywhere in and
+    /// around the wall, inside holes, on their vertices and edges, and far outside.
+    #[test]
+    fn nearest_feature_answers_as_the_plain_search(
+        rx in 9.0f32..17.0,
+        ry in 9.0f32..17.0,
+        wall_wobble in 0.0f32..0.15,
+        holes in proptest::collection::vec(hole_spec(), 1..6),
+        queries in proptest::collection::vec((-1.6f32..1.6, -1.6f32..1.6, 0usize..512, 0u8..4), 96),
+    ) {
+        let slice = random_slice(rx, ry, wall_wobble, &holes, 0.4);
+        prop_assume!(slice.is_some());
+        let slice = slice.unwrap();
+        let features: Vec<&Feature> = slice.holes().iter().chain([slice.wall()]).collect();
+        for (qx, qy, k, kind) in queries {
+            let free = Point::new(qx * rx, qy * ry);
+            let f = features[k % features.len()].points();
+            let (a, b) = (f[k % f.len()], f[(k + 1) % f.len()]);
+            let p = match kind {
+                0 => free,
+                1 => a + (b - a) * 0.5,
+                2 => a,
+                // Just off a vertex, towards the free point.
+                _ => a + (free - a) * 1e-3,
+            };
+            let wall = slice.wall().nearest(p);
+            let mut plain = (slice.holes().len(), -wall.distance, wall);
+            for (i, h) in slice.holes().iter().enumerate() {
+                let n = h.nearest(p);
+                if n.distance < plain.1 {
+                    plain = (i, n.distance, n);
+                }
+            }
+            let (i, d, n) = slice.nearest_feature(p);
+            prop_assert_eq!(i, plain.0, "feature at {:?}", p);
+            prop_assert_eq!(d.to_bits(), plain.1.to_bits(), "distance at {:?}", p);
+            prop_assert_eq!(n.point, plain.2.point, "point at {:?}", p);
+            prop_assert_eq!(n.edge, plain.2.edge, "edge at {:?}", p);
+        }
+    }
+}
