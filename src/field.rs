@@ -148,12 +148,27 @@ impl Field {
         let half = 0.5 * w;
         for k in 0..self.grid.len() {
             let p = self.grid.node(k);
-            let wc = slice.wall_clearance(p) - half;
-            let (label, u0) = if wc < 0.0 {
+            // Outside the wall the node is outside whatever its distances (the containment
+            // test is the sign of the wall's distance).
+            let (label, u0) = if !slice.wall().contains(p) {
                 (OUTSIDE, 1.0)
             } else {
                 let (i, di, _, dj) = slice.nearest_holes(p);
-                if di < half {
+                // Inside, the wall's clearance decides the node only below half a road, or
+                // below half a road more than half the gap between the two nearest holes
+                // (where it bounds `u0`); farther, it is not measured and stands at infinity,
+                // which `min` passes over as it would the measured value.
+                let cap = if di < half {
+                    half
+                } else {
+                    half + (0.5 * (dj - di)).max(0.0)
+                };
+                let wc = slice
+                    .wall_clearance_within(p, cap)
+                    .map_or(f32::INFINITY, |c| c - half);
+                if wc < 0.0 {
+                    (OUTSIDE, 1.0)
+                } else if di < half {
                     (KEEP_OUT | i as u8, 0.0)
                 } else {
                     let a = di - half;

@@ -862,6 +862,19 @@ impl Slice {
         -self.wall.signed_distance(p)
     }
 
+    /// [`wall_clearance`](Self::wall_clearance) where it may be `cap` or less; `None` where
+    /// `p` is inside the wall and every box of the wall's chunks of edges is farther than
+    /// `cap` plus [`polygon::rounding_slack`], so the clearance is certainly above `cap`
+    /// (the containment test costs a fraction of the distance search).
+    pub fn wall_clearance_within(&self, p: Point, cap: f32) -> Option<f32> {
+        let reach = cap + polygon::rounding_slack(p, self.wall.bbox);
+        if reach >= 0.0 && self.wall.nearest_box2(p) > reach * reach && self.wall.contains(p) {
+            None
+        } else {
+            Some(self.wall_clearance(p))
+        }
+    }
+
     /// The nearest and second-nearest hole to `p` with their signed distances
     /// (`(i, d_i, j, d_j)`; `j == i` and `d_j` infinite with a single hole).
     pub fn nearest_holes(&self, p: Point) -> (usize, f32, usize, f32) {
