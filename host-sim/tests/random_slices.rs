@@ -4,7 +4,7 @@
 //! distribution. What holds everywhere today is asserted as the bar: no spill, widths within
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
 //! The offset spiral's coverage holds the bar (>= 0.97, every one of the benchmark's 200
-//! slices); its overfill is guarded at 0.05 (the bar, 0.04, is exceeded on 5 of 200), the
+//! slices); its overfill is guarded at 0.05 (the bar, 0.04, is exceeded on 4 of 200), the
 //! zigzag's coverage at 0.85 (it reaches 0.63 on the benchmark's slices) and its starts at
 //! two; the rest is the benchmark's to report.
 
@@ -59,5 +59,32 @@ fn default_layers_on_random_slices_as_printed() {
                 assert!(m.overfill <= 0.05, "{what}");
             }
         }
+    }
+}
+
+/// Where two features come within about one and a half road widths, the region a turn fits in
+/// narrows to a channel thinner than the distance grid's spacing; the traced turn closes on
+/// both sides of it and the pocket beyond became an island loop reached by travel (on 6 of
+/// the benchmark's 200 slices, among them these). The join across the pinch lays it in the
+/// one road: a bridge out and one back through the channel.
+#[test]
+fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
+    for seed in [222, 164, 227] {
+        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
+        let slice = &r.slice;
+        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let l = layer(slice, planner.last_plan(), Fill::Offset, 1)
+            .unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let mut meter = Meter::new(
+            slice,
+            Options::with_cell(slice.settings().road_width / 16.0),
+        );
+        let m = meter.measure(l.pattern, &l.path, &|_| None);
+        let what = format!("{} ({}): {m:?}", r.description, l.note);
+        println!("{what}");
+        assert!(l.note.contains("0 jump(s)"), "{what}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+        assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
     }
 }

@@ -321,7 +321,7 @@ fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Resu
 /// How much narrower, as a share of its width, a move's far end may be laid where no bend
 /// keeps the move out of a keep-out band (see [`bend`]): a chord between two points on the
 /// band's edge sags a few micrometres into it, a road a few per cent narrower clears it.
-const NARROWING: f32 = 0.1;
+pub(crate) const NARROWING: f32 = 0.1;
 
 /// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says; where no bend keeps
 /// out of a feature the move crosses, round it ([`detour`]) if `route` (not on a detour).

@@ -2,8 +2,12 @@
 //! bridge can be cut), a spanning tree of them from the outermost loop, and the relaxed
 //! joins for loops the strict search leaves alone.
 
-use super::{capacity, wrap, OffsetSpiral, OffsetStats, Site, NONE, RELAXED_TOL, STRICT_TOL};
+use super::{
+    capacity, wrap, OffsetSpiral, OffsetStats, Site, NONE, PINCH_BRIDGE_ROADS, PINCH_GAP,
+    RELAXED_TOL, STRICT_TOL,
+};
 use crate::config::MAX_SITES;
+use crate::toolpath::NARROWING;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
 
@@ -159,7 +163,10 @@ impl OffsetSpiral {
             roads += 1;
             self.loops[root].visited = true;
             self.bfs(slice, &pairs, root, stats)?;
-            while let Some((other, site)) = self.relaxed_join(slice, w) {
+            while let Some((other, site)) = self
+                .relaxed_join(slice, w)
+                .or_else(|| self.pinch_join(slice, w))
+            {
                 self.attach(other, site, stats)?;
                 self.bfs(slice, &pairs, other, stats)?;
             }
@@ -249,5 +256,81 @@ impl OffsetSpiral {
             }
         }
         None
+    }
+
+    /// A join across a pinch: a loop no other join reaches (and not a small one, which is
+    /// left out rather than joined by a bridge), to a reached loop of the same level across a
+    /// channel the distance grid is too coarse to resolve.
+    ///
+    /// Where two features come within a couple of road widths of each other, the region a
+    /// turn's road fits in narrows to a channel between them; where the channel is narrower
+    /// than the grid's spacing, no grid node in it is as far from the features as the turn,
+    /// and the traced turn closes on each side of it: the pocket beyond becomes an island loop
+    /// that runs beside no other. Here such a loop is joined to the reached loop of its level
+    /// nearest it (at most [`PINCH_BRIDGE_ROADS`] road widths away), by a bridge out and one
+    /// back [`PINCH_GAP`] road widths apart, where every point of the bridge fits a road as
+    /// narrow as a move is laid where it would sag into a keep-out band (the channel is
+    /// there). The two bridges lie almost on each other: a road width or so of
+    /// road laid twice instead of an extrusion start.
+    pub(super) fn pinch_join(&self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
+        let n = self.loops.len();
+        let reach = PINCH_BRIDGE_ROADS * w;
+        let step = 0.1 * w;
+        // (bridge length, loop reached, site)
+        let mut best: Option<(f32, usize, Site)> = None;
+        for u in (0..n).filter(|&u| !self.loops[u].visited && !self.loops[u].optional) {
+            let lu = &self.loops[u];
+            for v in (0..n).filter(|&v| self.loops[v].visited && self.loops[v].level == lu.level) {
+                let lv = &self.loops[v];
+                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).max(lv.bbox.0.x - lu.bbox.1.x);
+                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).max(lv.bbox.0.y - lu.bbox.1.y);
+                if gap_x.max(gap_y) > reach {
+                    continue;
+                }
+                // The point of `u` nearest `v`, sampled every tenth of a road.
+                let samples = libm::ceilf(lu.length / step) as usize;
+                let mut near: Option<(f32, f32, f32)> = None;
+                for k in 0..samples {
+                    let su = k as f32 * step;
+                    let (sv, d) = self.project(v, self.at(u, su));
+                    if near.is_none_or(|b| d < b.2) {
+                        near = Some((su, sv, d));
+                    }
+                }
+                let Some((su, sv, d)) = near else { continue };
+                if d > reach || best.as_ref().is_some_and(|b| d >= b.0) {
+                    continue;
+                }
+                let (pu, pv) = (self.at(u, su), self.at(v, sv));
+                let m = libm::ceilf(d / step).max(1.0) as usize;
+                // As narrow as a move is laid where no bend keeps it out of a keep-out band.
+                let narrowest = (1.0 - NARROWING) * w;
+                if !(0..=m).all(|i| slice.fits(pu.lerp(pv, i as f32 / m as f32), narrowest, 1e-4)) {
+                    continue;
+                }
+                let half_gap = 0.5 * PINCH_GAP * w;
+                let (a1, a2) = (
+                    wrap(su - half_gap, lu.length),
+                    wrap(su + half_gap, lu.length),
+                );
+                let (b1, b2) = (
+                    wrap(sv - half_gap, lv.length),
+                    wrap(sv + half_gap, lv.length),
+                );
+                if !self.free(u, a1, a2, 0.5 * w) || !self.free(v, b1, b2, 0.5 * w) {
+                    continue;
+                }
+                let site = Site {
+                    a: u as u16,
+                    a1,
+                    a2,
+                    b: v as u16,
+                    b1,
+                    b2,
+                };
+                best = Some((d, u, site));
+            }
+        }
+        best.map(|(_, u, site)| (u, site))
     }
 }
