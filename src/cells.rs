@@ -13,6 +13,7 @@ use crate::config::{
     BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS,
 };
 use crate::field::{Field, KEEP_OUT};
+use crate::geometry::primitives::{fmin, MinMax};
 use crate::geometry::{polyline, Point};
 use crate::{Error, Limit, Slice};
 
@@ -153,7 +154,7 @@ impl Cells {
             }
         }
         let w = slice.settings().road_width;
-        let step = 0.5 * grid.h.min(w);
+        let step = 0.5 * grid.h.fmin(w);
         for s in 0..seeds.len() {
             if seeds[s].used {
                 continue;
@@ -270,8 +271,8 @@ fn march(
             let nearest_third = (0..slice.holes().len())
                 .filter(|&c| c != a && c != b)
                 .map(d)
-                .fold(f32::INFINITY, f32::min);
-            nearest_third - d(a).max(d(b))
+                .fold(f32::INFINITY, fmin);
+            nearest_third - d(a).fmax(d(b))
         };
         if third(q) <= 0.0 {
             let e = bisect(p, q, third);

@@ -18,6 +18,7 @@ use crate::config::{
     BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES, GRID_SPACING_NODES,
     GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
 };
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{Grid, Point};
 use crate::{Error, Limit, Slice};
 
@@ -161,7 +162,7 @@ impl Field {
                 let cap = if di < half {
                     half
                 } else {
-                    half + (0.5 * (dj - di)).max(0.0)
+                    half + (0.5 * (dj - di)).fmax(0.0)
                 };
                 let wc = slice
                     .wall_clearance_within(p, cap)
@@ -172,8 +173,8 @@ impl Field {
                     (KEEP_OUT | i as u8, 0.0)
                 } else {
                     let a = di - half;
-                    let b = wc.min(0.5 * (dj - di));
-                    (i as u8, a / (a + b).max(1e-6))
+                    let b = wc.fmin(0.5 * (dj - di));
+                    (i as u8, a / (a + b).fmax(1e-6))
                 }
             };
             self.mem
@@ -257,7 +258,7 @@ impl Field {
                 let old = self.mem.values[k];
                 let new = old + FIELD_OMEGA * (target - old);
                 self.mem.values[k] = new;
-                residual = residual.max(libm::fabsf(new - old));
+                residual = residual.fmax(libm::fabsf(new - old));
             }
             sweeps += 1;
         }

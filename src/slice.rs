@@ -8,6 +8,7 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{self, defaults, CHANNELS, MAX_HOLES, MAX_VERTICES, SIMPLIFY_ABOVE_VERTICES};
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{Error, FeatureId, Limit, SettingId};
 
@@ -148,8 +149,8 @@ impl Feature {
             let end = (start + CHUNK).min(n);
             let mut b = primitives::bbox(&pts[start..end]);
             let closing = pts[end % n];
-            b.0 = Point::new(b.0.x.min(closing.x), b.0.y.min(closing.y));
-            b.1 = Point::new(b.1.x.max(closing.x), b.1.y.max(closing.y));
+            b.0 = Point::new(b.0.x.fmin(closing.x), b.0.y.fmin(closing.y));
+            b.1 = Point::new(b.1.x.fmax(closing.x), b.1.y.fmax(closing.y));
             // Never full: at most MAX_VERTICES / CHUNK chunks (asserted with CHUNK).
             chunks.push(b).map_err(|_| Limit::Vertices.error())?;
         }
@@ -533,7 +534,7 @@ impl Settings {
             relax_spacing: road_width,
             min_width: defaults::MIN_WIDTH_PER_ROAD * road_width,
             max_width: defaults::MAX_WIDTH_PER_ROAD * road_width,
-            simplify_tolerance: defaults::SIMPLIFY_TOLERANCE.min(0.1 * road_width),
+            simplify_tolerance: defaults::SIMPLIFY_TOLERANCE.fmin(0.1 * road_width),
         }
     }
 
@@ -975,8 +976,8 @@ impl Slice {
     /// touches.
     pub fn features_crossed(&self, a: Point, b: Point) -> impl Iterator<Item = &Feature> {
         let (lo, hi) = (
-            Point::new(a.x.min(b.x), a.y.min(b.y)),
-            Point::new(a.x.max(b.x), a.y.max(b.y)),
+            Point::new(a.x.fmin(b.x), a.y.fmin(b.y)),
+            Point::new(a.x.fmax(b.x), a.y.fmax(b.y)),
         );
         self.holes
             .iter()
@@ -1010,8 +1011,8 @@ impl Slice {
 
     /// Calls `f` with every feature vertex in the box of segment `ab` grown by `r`.
     fn vertices_near(&self, a: Point, b: Point, r: f32, mut f: impl FnMut(Point)) {
-        let lo = Point::new(a.x.min(b.x) - r, a.y.min(b.y) - r);
-        let hi = Point::new(a.x.max(b.x) + r, a.y.max(b.y) + r);
+        let lo = Point::new(a.x.fmin(b.x) - r, a.y.fmin(b.y) - r);
+        let hi = Point::new(a.x.fmax(b.x) + r, a.y.fmax(b.y) + r);
         // Only the chunks whose box meets the query's can hold such a vertex; the rest are
         // skipped, and the vertices come in the same order as over the whole polygon.
         let mut consider = |feature: &Feature| {
@@ -1043,7 +1044,7 @@ impl Slice {
         let len = ab.norm();
         let k = if len > 0.0 { (rb - ra) / len } else { 0.0 };
         let mut best: Option<(f32, f32, Point)> = None;
-        self.vertices_near(a, b, ra.max(rb), |q| {
+        self.vertices_near(a, b, ra.fmax(rb), |q| {
             let t = if len <= 0.0 {
                 0.0
             } else if k.abs() >= 1.0 {

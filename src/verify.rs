@@ -3,6 +3,7 @@
 //! [`verify`] re-derives each property from the slice and the plan alone (no planner state),
 //! so tests, the host tool and the firmware can check a plan before anything is printed.
 
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, primitives, Point};
 use crate::{FeatureId, Plan, Slice, Target};
 
@@ -112,7 +113,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
         }
         // Every point, and points along every segment, in the printable region.
         for w in pts.windows(2) {
-            let n = libm::ceilf(w[0].dist(w[1]) / (0.25 * half)).max(1.0) as usize;
+            let n = libm::ceilf(w[0].dist(w[1]) / (0.25 * half)).fmax(1.0) as usize;
             for t in 0..=n {
                 let p = w[0].lerp(w[1], t as f32 / n as f32);
                 if !slice.is_printable(p, ON_CURVE_TOL) {

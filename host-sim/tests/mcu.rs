@@ -186,6 +186,65 @@ fn elf_sections(elf: &[u8]) -> Vec<(String, u32, u32, usize)> {
         .collect()
 }
 
+/// The names of the symbols an ELF32 file defines (its `.symtab`, with the string table the
+/// symbol table's header links to).
+fn elf_symbols(elf: &[u8]) -> Vec<String> {
+    let u16_at = |o: usize| u16::from_le_bytes([elf[o], elf[o + 1]]) as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(elf[o..o + 4].try_into().unwrap()) as usize;
+    const SHT_SYMTAB: usize = 2;
+    let (shoff, shentsize, shnum) = (u32_at(0x20), u16_at(0x2E), u16_at(0x30));
+    let header = |k: usize| shoff + k * shentsize;
+    let Some(symtab) = (0..shnum)
+        .map(header)
+        .find(|&h| u32_at(h + 4) == SHT_SYMTAB)
+    else {
+        return Vec::new();
+    };
+    let (at, size, link) = (
+        u32_at(symtab + 16),
+        u32_at(symtab + 20),
+        u32_at(symtab + 24),
+    );
+    let strings = u32_at(header(link) + 16);
+    (at..at + size)
+        .step_by(16)
+        .map(|e| {
+            let name_at = strings + u32_at(e);
+            let end = name_at + elf[name_at..].iter().position(|&b| b == 0).unwrap();
+            String::from_utf8_lossy(&elf[name_at..end]).into_owned()
+        })
+        .collect()
+}
+
+/// The Cortex-M4F's FPU has no `VMINNM`/`VMAXNM`: `f32::min` and `f32::max` are calls to
+/// `fminf` and `fmaxf`, a dozen instructions each, and box tests make millions of them (they
+/// were 15-60 % of the phases' instructions). The core uses `geometry::primitives::{fmin,
+/// fmax}` (the same answers, inline comparisons); with LTO an image that calls neither
+/// routine does not link them, which this checks for both firmwares.
+#[test]
+fn the_firmware_calls_no_min_or_max_routine() {
+    if !qemu::available("firmware symbols") {
+        return;
+    }
+    for bin in [None, Some("link")] {
+        let elf = std::fs::read(qemu::firmware(bin)).unwrap();
+        let symbols = elf_symbols(&elf);
+        let name = bin.unwrap_or("hollowpath-qemu");
+        assert!(
+            symbols.iter().any(|s| s == "main"),
+            "{name}: no symbols read ({} entries)",
+            symbols.len()
+        );
+        for routine in ["fminf", "fmaxf"] {
+            assert!(
+                !symbols.iter().any(|s| s == routine),
+                "{name} links {routine}: an f32::min or f32::max in the core (use \
+                 geometry::primitives::{{fmin, fmax}} or the MinMax methods)"
+            );
+        }
+    }
+}
+
 #[test]
 fn firmware_images_fit_the_boards_flash_and_keep_working_memory_out_of_it() {
     if !qemu::available("firmware sizes") {

@@ -1,4 +1,5 @@
 use super::Point;
+use crate::geometry::primitives::MinMax;
 
 /// A regular grid of nodes over a box: `nx * ny` nodes `h` apart, node `(i, j)` at
 /// `origin + (i h, j h)`, stored row by row (`k = j * nx + i`).
@@ -84,7 +85,7 @@ impl Grid {
 
     /// The largest square (side, mm) a grid `h` apart with at most `max_nodes` nodes covers.
     pub fn square_side(h: f32, max_nodes: usize) -> f32 {
-        (libm::floorf(hollowpath_fpu::sqrtf(max_nodes as f32)) - 3.0).max(0.0) * h
+        (libm::floorf(hollowpath_fpu::sqrtf(max_nodes as f32)) - 3.0).fmax(0.0) * h
     }
 
     /// Number of nodes.

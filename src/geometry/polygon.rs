@@ -1,7 +1,7 @@
 //! Closed polygons given as point slices (the closing edge implied).
 
-use super::primitives::closest_on_segment;
 pub use super::primitives::{bbox, orient, segments_cross, segments_meet};
+use super::primitives::{closest_on_segment, fmax};
 use super::Point;
 
 /// Twice the signed area: positive for counter-clockwise.
@@ -112,8 +112,8 @@ pub fn bbox_distance(b: (Point, Point), p: Point) -> f32 {
 /// The square of [`bbox_distance`], without its square root (a software routine on the
 /// Cortex-M4F's libm, dozens of instructions): for comparing with squared distances.
 pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
-    let dx = (b.0.x - p.x).max(p.x - b.1.x).max(0.0);
-    let dy = (b.0.y - p.y).max(p.y - b.1.y).max(0.0);
+    let dx = fmax(fmax(b.0.x - p.x, p.x - b.1.x), 0.0);
+    let dy = fmax(fmax(b.0.y - p.y, p.y - b.1.y), 0.0);
     dx * dx + dy * dy
 }
 
@@ -123,6 +123,6 @@ pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
 /// so this is generous. A search that skips a box only when it is farther than its best by
 /// this much skips nothing that could have won or tied: it answers as the search over all.
 pub fn rounding_slack(p: Point, (lo, hi): (Point, Point)) -> f32 {
-    let size = |q: Point| q.x.abs().max(q.y.abs());
-    1e-5 * (1.0 + size(p) + size(lo).max(size(hi)))
+    let size = |q: Point| fmax(q.x.abs(), q.y.abs());
+    1e-5 * (1.0 + size(p) + fmax(size(lo), size(hi)))
 }

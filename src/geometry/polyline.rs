@@ -1,6 +1,6 @@
 //! Open polylines given as point slices.
 
-use super::primitives::{bbox, closest_on_segment, orient, segments_meet};
+use super::primitives::{bbox, closest_on_segment, fmax, fmin, orient, segments_meet};
 use super::Point;
 
 /// Length of an open polyline.
@@ -127,18 +127,18 @@ pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
     let q = &q[first..last + 2];
     for a in p.windows(2) {
         let (alo, ahi) = (
-            Point::new(a[0].x.min(a[1].x), a[0].y.min(a[1].y)),
-            Point::new(a[0].x.max(a[1].x), a[0].y.max(a[1].y)),
+            Point::new(fmin(a[0].x, a[1].x), fmin(a[0].y, a[1].y)),
+            Point::new(fmax(a[0].x, a[1].x), fmax(a[0].y, a[1].y)),
         );
         if !boxes_overlap((alo, ahi), qb, 0.0) {
             continue;
         }
         for b in q.windows(2) {
             // Boxes apart: the segments cannot meet.
-            if b[0].x.max(b[1].x) < alo.x
-                || b[0].x.min(b[1].x) > ahi.x
-                || b[0].y.max(b[1].y) < alo.y
-                || b[0].y.min(b[1].y) > ahi.y
+            if fmax(b[0].x, b[1].x) < alo.x
+                || fmin(b[0].x, b[1].x) > ahi.x
+                || fmax(b[0].y, b[1].y) < alo.y
+                || fmin(b[0].y, b[1].y) > ahi.y
             {
                 continue;
             }

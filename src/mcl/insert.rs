@@ -13,6 +13,7 @@ use heapless::Vec;
 use crate::cells::bisect;
 use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, TRACE_POINTS};
 use crate::field::Field;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::mcl::{Half, HalfEnd, Halves};
@@ -49,7 +50,7 @@ pub fn insert(
     let w = settings.road_width;
     for i in 0..slice.holes().len() {
         let hole = KeepOut::new(&slice.holes()[i], 0.5 * w, Side::Outside);
-        let n0 = libm::ceilf(hole.length() / settings.mcl_spacing).max(3.0) as usize;
+        let n0 = libm::ceilf(hole.length() / settings.mcl_spacing).fmax(3.0) as usize;
         let ds = hole.length() / n0 as f32;
         for k in 0..n0 {
             trace_half(
@@ -227,7 +228,7 @@ fn trace(
     let w = slice.settings().road_width;
     let half = 0.5 * w;
     let h = field.grid().h;
-    let step = 0.5 * h.min(w);
+    let step = 0.5 * h.fmin(w);
     // The direction at `x`, whose nearest point of hole `i` is `near`.
     let direction_at = |x: Point, near: Nearest| {
         let (n, d) = (near.gradient(x), near.distance);

@@ -22,6 +22,7 @@ use heapless::Vec;
 use crate::cells::{away_from_hole, onto_bisector, Cells};
 use crate::config::{HALF_POINTS, MAX_HALVES, MCL_POINTS};
 use crate::error::{Error, Limit};
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, primitives, Point};
 use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
 use crate::stats::PlanStats;
@@ -41,8 +42,8 @@ const ON_BISECTOR_TOL: f32 = 0.02;
 /// assert_eq!(f, 0.5);
 /// ```
 pub fn objective(bisector_normal: Point, hole_normal: Point, dist: f32, w_n: f32, w_d: f32) -> f32 {
-    let dot = bisector_normal.dot(hole_normal).max(0.0);
-    libm::powf(dot, w_n) / libm::powf(dist.max(1e-3), w_d)
+    let dot = bisector_normal.dot(hole_normal).fmax(0.0);
+    libm::powf(dot, w_n) / libm::powf(dist.fmax(1e-3), w_d)
 }
 
 #[derive(Clone, Copy)]

@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::CHANNELS;
 
 pub use super::error::PrinterError;
+use crate::geometry::primitives::{fmax, MinMax};
 
 /// Motion axes: X, Y, Z.
 pub const AXES: usize = 3;
@@ -254,7 +255,7 @@ impl PrinterConfig {
     /// as long a gap between two steps.
     pub fn max_step_rate(&self) -> f32 {
         let pulse = self.ns_to_ticks(self.step_pulse_ns) as f32;
-        MAX_STEP_RATE_HZ.min(self.tick_hz as f32 / (2.0 * pulse + 1.0))
+        MAX_STEP_RATE_HZ.fmin(self.tick_hz as f32 / (2.0 * pulse + 1.0))
     }
 
     /// The channels in use.
@@ -268,7 +269,7 @@ impl PrinterConfig {
         self.channels()
             .iter()
             .map(|c| c.time_constant_s)
-            .fold(0.0, f32::max)
+            .fold(0.0, fmax)
     }
 
     /// Checks every value; the first bad one is named.
@@ -365,7 +366,7 @@ impl PrinterConfig {
                 }
             }
             check_curve(channel, &ch.curve)?;
-            let advance = ch.dead_time_s + ch.time_constant_s + ch.lead_s.max(ch.lag_s);
+            let advance = ch.dead_time_s + ch.time_constant_s + ch.lead_s.fmax(ch.lag_s);
             // One segment spare: the valves look at most SEGMENT_RING - 1 segments ahead.
             if advance > look_ahead - 2.0 * SEGMENT_S {
                 return Err(PrinterError::Advance { channel, advance });

@@ -15,6 +15,7 @@ use super::stepper::{SegmentGen, StepTimer, Stepper, Ticks};
 use super::valve::Valves;
 use super::Board;
 use crate::config::CHANNELS;
+use crate::geometry::primitives::MinMax;
 use crate::toolpath::moves::Move;
 use embedded_hal::digital::{InputPin, OutputPin};
 
@@ -426,7 +427,7 @@ impl<const N: usize> Machine<N> {
                 h.axis += 1;
                 continue;
             };
-            let rate = self.cfg.homing_speed.min(cfg.max_speed) * cfg.steps_per_mm;
+            let rate = self.cfg.homing_speed.fmin(cfg.max_speed) * cfg.steps_per_mm;
             // At least one pulse and one gap: validated step rates keep this above 2 pulses.
             let interval = (libm::roundf(self.cfg.tick_hz as f32 / rate) as u32).max(2 * pulse + 1);
             if h.high {

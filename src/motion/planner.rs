@@ -41,6 +41,7 @@
 //! ever raises the bounds, and every profile taken is one that can be driven.
 
 use super::config::{PrinterConfig, AXES};
+use crate::geometry::primitives::MinMax;
 use crate::toolpath::moves::Move;
 use crate::Material;
 
@@ -154,7 +155,7 @@ impl Profile {
     /// `length`; speeds that do not fit (rounding) are pulled in so the distances add up.
     pub fn new([v0, vc, v1]: [f32; 3], accel: f32, decel: f32, length: f32) -> Profile {
         let (a, d) = (accel, decel);
-        let vc = vc.max(v0).max(v1);
+        let vc = vc.fmax(v0).fmax(v1);
         let mut d_acc = ((vc * vc - v0 * v0) / (2.0 * a)).clamp(0.0, length);
         let mut d_dec = ((vc * vc - v1 * v1) / (2.0 * d)).clamp(0.0, length);
         if d_acc + d_dec > length {
@@ -166,7 +167,7 @@ impl Profile {
                 d_dec -= over;
             }
         }
-        let cruise_len = (length - d_acc - d_dec).max(0.0);
+        let cruise_len = (length - d_acc - d_dec).fmax(0.0);
         let t_acc = (vc - v0) / a;
         let t_dec = (vc - v1) / d;
         let t_cruise = if vc > 0.0 { cruise_len / vc } else { 0.0 };
@@ -195,7 +196,7 @@ impl Profile {
         } else if t <= self.t[0] + self.t[1] {
             self.d_acc + vc * (t - self.t[0])
         } else {
-            let u = (t - self.t[0] - self.t[1]).min(self.t[2]);
+            let u = (t - self.t[0] - self.t[1]).fmin(self.t[2]);
             self.length - self.d_dec + vc * u - 0.5 * self.decel * u * u
         };
         s.clamp(0.0, self.length)
@@ -209,7 +210,7 @@ impl Profile {
         } else if t <= self.t[0] + self.t[1] {
             vc
         } else {
-            (vc - self.decel * (t - self.t[0] - self.t[1])).max(v1)
+            (vc - self.decel * (t - self.t[0] - self.t[1])).fmax(v1)
         }
     }
 }
@@ -302,8 +303,8 @@ impl BlockMaker {
             unit[i] = mm[i] / length;
             let u = libm::fabsf(unit[i]);
             if u > 0.0 {
-                nominal = nominal.min(self.max_speed[i] / u);
-                accel = accel.min(self.max_accel[i] / u);
+                nominal = nominal.fmin(self.max_speed[i] / u);
+                accel = accel.fmin(self.max_accel[i] / u);
             }
         }
         Ok(Some(Block {
@@ -344,7 +345,7 @@ pub fn junction_speed(a: &Block, b: &Block, deviation: f32) -> f32 {
     for i in 0..AXES {
         cos -= a.unit[i] * b.unit[i];
     }
-    let limit = a.nominal.min(b.nominal);
+    let limit = a.nominal.fmin(b.nominal);
     if cos > 0.999_999 {
         // A reversal: stop.
         return 0.0;
@@ -354,9 +355,9 @@ pub fn junction_speed(a: &Block, b: &Block, deviation: f32) -> f32 {
         return limit;
     }
     let sin_half = hollowpath_fpu::sqrtf(0.5 * (1.0 - cos));
-    let accel = a.accel.min(b.accel);
+    let accel = a.accel.fmin(b.accel);
     let v2 = accel * deviation * sin_half / (1.0 - sin_half);
-    hollowpath_fpu::sqrtf(v2).min(limit)
+    hollowpath_fpu::sqrtf(v2).fmin(limit)
 }
 
 /// The fastest a depositing block `b` may run after `a` where its road is narrower: the
@@ -369,7 +370,7 @@ pub fn narrowing_speed(a: &Block, b: &Block, tau: f32) -> f32 {
         return f32::INFINITY;
     }
     let shed = tau * libm::logf(a.width / b.width);
-    (BRAKE_MARGIN * b.length / shed).max(NARROWING_FLOOR * b.nominal)
+    (BRAKE_MARGIN * b.length / shed).fmax(NARROWING_FLOOR * b.nominal)
 }
 
 /// The slowest [`narrowing_speed`] goes, as a share of the block's nominal speed: steeper
@@ -439,7 +440,7 @@ impl<const N: usize> Planner<N> {
         b.pause_after = false;
         if self.len > 0 {
             let prev = &self.ring[self.index(self.len - 1)];
-            b.nominal = narrowing_speed(prev, &b, self.valve_tau).min(b.nominal);
+            b.nominal = narrowing_speed(prev, &b, self.valve_tau).fmin(b.nominal);
         }
         b.max_entry = match self.len {
             // The block before was taken with exit 0 (it was the tail).
@@ -494,7 +495,7 @@ impl<const N: usize> Planner<N> {
                 let b = &self.ring[self.index(k)];
                 v = hollowpath_fpu::sqrtf(v * v + 2.0 * self.decel(b, v) * b.length);
                 if k > 0 {
-                    v = v.min(b.max_entry);
+                    v = v.fmin(b.max_entry);
                 }
             }
             if v >= self.fixed_entry * (1.0 + 1e-5) + 1e-6 {
@@ -516,8 +517,8 @@ impl<const N: usize> Planner<N> {
     fn decel(&self, b: &Block, exit: f32) -> f32 {
         if b.deposit && self.valve_tau > 0.0 {
             // Non-decreasing in `exit`: the reverse pass's bounds only rise as blocks arrive.
-            let v = exit.max(STOP_BRAKE_SHARE * b.nominal);
-            b.accel.min(BRAKE_MARGIN * v / self.valve_tau)
+            let v = exit.fmax(STOP_BRAKE_SHARE * b.nominal);
+            b.accel.fmin(BRAKE_MARGIN * v / self.valve_tau)
         } else {
             b.accel
         }
@@ -551,7 +552,7 @@ impl<const N: usize> Planner<N> {
             let decel = self.decel(&self.ring[i], next_entry);
             let b = &mut self.ring[i];
             let brake = hollowpath_fpu::sqrtf(next_entry * next_entry + 2.0 * decel * b.length);
-            let rev = b.max_entry.min(brake);
+            let rev = b.max_entry.fmin(brake);
             if early && k + 1 < self.len && rev.to_bits() == b.rev.to_bits() {
                 return k + 1;
             }
@@ -577,12 +578,12 @@ impl<const N: usize> Planner<N> {
                 0.0
             };
             let b = &self.ring[i];
-            let entry = if k == 0 { v } else { v.min(b.rev) };
+            let entry = if k == 0 { v } else { v.fmin(b.rev) };
             let reach = hollowpath_fpu::sqrtf(entry * entry + 2.0 * b.accel * b.length);
             let exit = if b.pause_after {
                 0.0
             } else {
-                next_bound.min(reach)
+                next_bound.fmin(reach)
             };
             let decel = self.decel(b, exit);
             let (a, d) = (b.accel, decel);
@@ -595,9 +596,9 @@ impl<const N: usize> Planner<N> {
             b.decel = decel;
             b.cruise = b
                 .nominal
-                .min(hollowpath_fpu::sqrtf(peak2))
-                .max(entry)
-                .max(exit);
+                .fmin(hollowpath_fpu::sqrtf(peak2))
+                .fmax(entry)
+                .fmax(exit);
             v = exit;
         }
     }
@@ -639,7 +640,7 @@ mod tests {
         let jd = 0.01;
         // 90 degrees: v^2 = a jd sin45 / (1 - sin45).
         let s = hollowpath_fpu::sqrtf(0.5);
-        let want = hollowpath_fpu::sqrtf(b[0].accel.min(b[1].accel) * jd * s / (1.0 - s));
+        let want = hollowpath_fpu::sqrtf(b[0].accel.fmin(b[1].accel) * jd * s / (1.0 - s));
         assert!((junction_speed(&b[0], &b[1], jd) - want).abs() < 1e-4);
         // A reversal stops; straight on keeps the nominal speed.
         assert_eq!(junction_speed(&b[2], &b[3], jd), 0.0);

@@ -45,6 +45,7 @@ use super::config::{ChannelConfig, CurvePoint, PrinterConfig, CURVE_POINTS, SEGM
 use super::stepper::Segment;
 use super::Board;
 use crate::config::CHANNELS;
+use crate::geometry::primitives::MinMax;
 use embedded_hal::pwm::SetDutyCycle;
 
 /// The duty (0 to 1) that makes the channel deliver `fraction` of its full flow, by the
@@ -189,7 +190,7 @@ fn envelopes<const R: usize>(
         };
         for (b, &qc) in bound.iter_mut().zip(q.iter()) {
             *b = if qc > 0.0 {
-                (qc * rest).min(*b * grow)
+                (qc * rest).fmin(*b * grow)
             } else {
                 f32::INFINITY
             };
@@ -221,7 +222,7 @@ fn envelopes<const R: usize>(
                 free += qc;
             }
         }
-        let deficit = (total - sum).max(0.0);
+        let deficit = (total - sum).fmax(0.0);
         for (c, o) in out.iter_mut().enumerate().take(channels) {
             let e = env(c);
             o[i] = if deficit > 0.0 && free > 0.0 && q[c] > 0.0 && e >= q[c] {
@@ -394,10 +395,10 @@ impl Valves {
                 held[c] = true;
                 own[c] = floor;
                 let y1 = floor + (ch.y - floor) * ch.r;
-                excess[0] += (floor + (ch.y - floor) * ch.g - q[1]).max(0.0);
-                excess[1] += (floor + (y1 - floor) * ch.g - q[2]).max(0.0);
+                excess[0] += (floor + (ch.y - floor) * ch.g - q[1]).fmax(0.0);
+                excess[1] += (floor + (y1 - floor) * ch.g - q[2]).fmax(0.0);
             } else {
-                own[c] = raw.max(floor);
+                own[c] = raw.fmax(floor);
                 free_flow += q[1];
             }
         }
@@ -418,7 +419,7 @@ impl Valves {
                 // Lowered by what the held channels will deliver beyond their shares a
                 // segment on (the lag carries the lowering over as the excess decays),
                 // never below the hold.
-                out[c] = (own[c] - share * total[2]).max(HOLD * q1);
+                out[c] = (own[c] - share * total[2]).fmax(HOLD * q1);
             }
         }
         self.excess_prev = excess[0];
@@ -428,7 +429,7 @@ impl Valves {
             let ahead = |k: usize| -> f32 {
                 // The road's own flow: the lead and lag are timed on it, not on its envelope.
                 let q = [at(c, k.saturating_sub(1)), at(c, k), at(c, k + 1)];
-                (q[1] + ch.tau * slope(q, k)).max(0.0)
+                (q[1] + ch.tau * slope(q, k)).fmax(0.0)
             };
             if ch.lag > 0 && out[c] > 0.0 && ahead(ch.dead + ch.lag) == 0.0 {
                 out[c] = 0.0;

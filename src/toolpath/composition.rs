@@ -2,6 +2,7 @@
 //! distance along it (paper, section 3).
 
 use crate::config::CHANNELS;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, primitives, Point};
 use crate::{Material, Plan, Slice, Target};
 
@@ -99,7 +100,7 @@ impl<'a> BlendedField<'a> {
             }
             let ((s, _, d), length) = polyline::project_points(self.plan.points_iter(m), p);
             if best.is_none_or(|b| d < b.0) {
-                best = Some((d, k, s / length.max(1e-9)));
+                best = Some((d, k, s / length.fmax(1e-9)));
             }
         }
         let (_, k, t) = best?;

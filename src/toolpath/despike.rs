@@ -11,6 +11,7 @@
 //! line it had already covered. A chain of spikes goes one vertex at a time.
 
 use super::{PathSink, Vertex};
+use crate::geometry::primitives::MinMax;
 use crate::{Error, Limit};
 
 /// A turn counts as a reversal below this cosine (about 172 degrees).
@@ -56,7 +57,7 @@ impl<'a, S: PathSink> Despike<'a, S> {
         if lu <= 0.0 || lv <= 0.0 {
             return false;
         }
-        u.dot(v) < SPIKE_COS * lu * lv && lu.min(lv) < SPIKE_SHARE * self.road_width
+        u.dot(v) < SPIKE_COS * lu * lv && lu.fmin(lv) < SPIKE_SHARE * self.road_width
     }
 }
 

@@ -2,6 +2,7 @@
 //! between its neighbouring MCLs, the road's width and place in it, and the meander that fills
 //! a band wider than the widest road.
 
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, primitives, Point};
 use crate::toolpath::composition::along;
 use crate::toolpath::zigzag::EDGE_MARGIN;
@@ -79,7 +80,7 @@ fn ball(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
         let den = 2.0 * (n.dot(d) + off);
         if den > 1e-12 {
             let t = (d.dot(d) - off * off) / den;
-            best = best.min(t.max(0.0));
+            best = best.fmin(t.fmax(0.0));
         }
     }
     // The interior: the signed distance to the segment's line, h(t) = h0 + t (n . m), is
@@ -131,7 +132,7 @@ fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
         if disc >= 0.0 {
             let t = k - hollowpath_fpu::sqrtf(disc);
             if t >= 0.0 {
-                best = best.min(t);
+                best = best.fmin(t);
             }
         }
     }
@@ -187,7 +188,7 @@ fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
                 {
                     continue;
                 }
-                best = best.min(within(p, n, a, b, off));
+                best = best.fmin(within(p, n, a, b, off));
             }
         }
     }
@@ -207,8 +208,8 @@ fn box_clear_of_strip(p: Point, n: Point, (lo, hi): (Point, Point), off: f32, be
     for c in corners {
         let d = c - p;
         let (hc, gc) = (n.cross(d), n.dot(d));
-        h = (h.0.min(hc), h.1.max(hc));
-        g = (g.0.min(gc), g.1.max(gc));
+        h = (h.0.fmin(hc), h.1.fmax(hc));
+        g = (g.0.fmin(gc), g.1.fmax(gc));
     }
     h.0 > off + slack || h.1 < -off - slack || g.1 < -off - slack || g.0 > best + off + slack
 }
@@ -227,7 +228,7 @@ fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
     // Cannot stay infinite: the wall stops every ray from inside it.
     let hit = features_within(slice, p, n, 0.0);
     let mut best = if hit.is_finite() {
-        (hit - strip).max(0.0)
+        (hit - strip).fmax(0.0)
     } else {
         0.0
     };
@@ -284,7 +285,7 @@ fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, o
             {
                 continue;
             }
-            best = best.min(ball(p, n, seg[0], seg[1], 0.0));
+            best = best.fmin(ball(p, n, seg[0], seg[1], 0.0));
         }
     }
     *out = best;
@@ -339,7 +340,7 @@ pub(super) fn meander(
     // Strokes stand a road apart (a little less, evenly) over the whole MCL, at arc lengths
     // `(k + 1/2) spacing` from its `from` end, whatever the spacing of its vertices: a move
     // shorter than a road holds one stroke or none, a long one several.
-    let count = libm::ceilf(len / w).max(1.0);
+    let count = libm::ceilf(len / w).fmax(1.0);
     let spacing = len / count;
     let dir = b - a;
     // The strokes on this move, in walking order: from `sa` (included) toward `sb`.
@@ -423,7 +424,7 @@ fn stroke(
         state.tips = None;
         return Ok(false);
     };
-    let ws = spacing.max(settings.min_width);
+    let ws = spacing.fmax(settings.min_width);
     // Room for the stroke off every keep-out curve's strip (each feature's own material's
     // place, where an arc may run): its edge a road off the feature.
     let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
@@ -433,11 +434,11 @@ fn stroke(
         // within `room` of a feature's edge keeps `room` from every feature, and crosses
         // none (it would meet the edge first). None where `q` itself is within `room`.
         let free = features_within(slice, q, left_n * sign, room);
-        q + left_n * (sign * reach.min(free))
+        q + left_n * (sign * reach.fmin(free))
     };
     let tips = [
-        side((0.5 * right - 0.5 * ws).max(0.0), -1.0),
-        side((0.5 * left - 0.5 * ws).max(0.0), 1.0),
+        side((0.5 * right - 0.5 * ws).fmax(0.0), -1.0),
+        side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
     ];
     // Each end as wide as the gap to the last stroke's end on its side, where the strokes fan
     // apart (across the MCL's direction), within reach of the strip; the wider end stops
@@ -448,12 +449,12 @@ fn stroke(
             .tips
             .map_or(ws, |last| (last[k] - tips[k]).dot(along_mcl).abs());
         let cap = 2.0 * (slice.clearance(tips[k]) - settings.road_width - 2.0 * EDGE_MARGIN);
-        gap.min(settings.max_width).min(cap).max(ws)
+        gap.fmin(settings.max_width).fmin(cap).fmax(ws)
     };
     let widths = [tip_width(0), tip_width(1)];
     let tips = [0, 1].map(|k| {
         let out = tips[k].dist(q);
-        let back = (0.5 * (widths[k] - ws)).min(out);
+        let back = (0.5 * (widths[k] - ws)).fmin(out);
         if out > 1e-6 {
             tips[k] + (q - tips[k]) * (back / out)
         } else {
@@ -509,7 +510,7 @@ pub(super) fn road_at(slice: &Slice, p: Point, end: bool, band: Option<Band>) ->
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
     let cap = |q: Point| 2.0 * (slice.clearance(q) - EDGE_MARGIN);
     if end {
-        return (p, width.min(w - 2.0 * EDGE_MARGIN));
+        return (p, width.fmin(w - 2.0 * EDGE_MARGIN));
     }
     let shifted = p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width);
     // The shift toward the wider gap may bring the road nearer a feature than half the
@@ -519,5 +520,5 @@ pub(super) fn road_at(slice: &Slice, p: Point, end: bool, band: Option<Band>) ->
     } else {
         p
     };
-    (at, width.min(cap(at)))
+    (at, width.fmin(cap(at)))
 }

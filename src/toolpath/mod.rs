@@ -14,6 +14,7 @@ pub mod raster;
 pub mod spiral;
 pub mod zigzag;
 
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
 use crate::{Error, FeatureId, Limit, Material, Slice};
@@ -277,7 +278,7 @@ fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Resu
         FeatureId::Wall => Side::Inside,
         FeatureId::Hole(_) => Side::Outside,
     };
-    let width = a.width.min(b.width);
+    let width = a.width.fmin(b.width);
     let curve = KeepOut::new(feature, 0.5 * width, side);
     let (s0, s1) = (curve.param_of(a.at), curve.param_of(b.at));
     let ahead = curve.wrap(s1 - s0);
@@ -333,7 +334,7 @@ fn bend(
     depth: u8,
     route: bool,
 ) -> Result<(), Error> {
-    let half = 0.5 * a.width.max(b.width);
+    let half = 0.5 * a.width.fmax(b.width);
     let crossing = slice.segment_crosses_feature(a.at, b.at);
     let dip = if crossing { None } else { dip(slice, a, b) };
     if !crossing && dip.is_none() {
@@ -370,7 +371,7 @@ fn bend(
         if slice.fits(pushed, width, 1e-4) || crossing || room < slice.settings().min_width {
             (pushed, onto, width)
         } else {
-            (c, None, width.min(room))
+            (c, None, width.fmin(room))
         };
     // A point put on a feature's keep-out curve deposits at that feature: its material.
     let material = match onto {
@@ -406,7 +407,7 @@ fn bend(
 /// [`dip`] finds none), if a width within [`NARROWING`] of its own and at least `min_width`
 /// does: the widest such width, to within 1/4096 of `NARROWING` (bisection).
 fn narrowed(slice: &Slice, a: Vertex, b: Vertex) -> Option<Vertex> {
-    let least = (b.width * (1.0 - NARROWING)).max(slice.settings().min_width);
+    let least = (b.width * (1.0 - NARROWING)).fmax(slice.settings().min_width);
     if least > b.width {
         return None;
     }

@@ -16,6 +16,7 @@
 //! Everything downstream of a layer consumes these moves: the G-code exporter writes one `G1`
 //! per move, the metrics deposit them, and the motion planner will turn them into blocks.
 
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::toolpath::composition::blend;
 use crate::toolpath::Vertex;
@@ -84,12 +85,12 @@ pub fn pieces(a: &Vertex, b: &Vertex) -> u32 {
     // A move whose mix changes at all is laid in two pieces at least, so that each end's
     // exact mix is laid at that end (a feature's material on its keep-out curve).
     let by_mix = if mix > 0.0 {
-        (0.5 * mix / MIX_TOLERANCE).max(2.0)
+        (0.5 * mix / MIX_TOLERANCE).fmax(2.0)
     } else {
         0.0
     };
     // Not a number (a degenerate width or mix) fails the comparison: one piece.
-    let n = libm::ceilf(by_width.max(by_mix));
+    let n = libm::ceilf(by_width.fmax(by_mix));
     if n >= MAX_PIECES as f32 {
         MAX_PIECES
     } else if n >= 1.0 {
@@ -135,7 +136,7 @@ pub fn split(a: &Vertex, b: &Vertex, mut out: impl FnMut(Move)) {
         out(Move {
             from: prev.0,
             to: next.0,
-            width: prev.1.min(next.1),
+            width: prev.1.fmin(next.1),
             material,
             deposit: true,
         });

@@ -4,6 +4,7 @@
 //! comes from the blended field at each vertex. It is measured exactly like the MCL layers, so
 //! their gain is shown rather than claimed.
 
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::composition::BlendedField;
@@ -56,10 +57,10 @@ pub fn raster(
         f32::NEG_INFINITY,
     );
     for c in corners {
-        a0 = a0.min(c.dot(across));
-        a1 = a1.max(c.dot(across));
-        d0 = d0.min(c.dot(dir));
-        d1 = d1.max(c.dot(dir));
+        a0 = a0.fmin(c.dot(across));
+        a1 = a1.fmax(c.dot(across));
+        d0 = d0.fmin(c.dot(dir));
+        d1 = d1.fmax(c.dot(dir));
     }
     let lines = libm::floorf((a1 - a0) / w) as usize;
     if lines > MAX_LINES {
@@ -145,7 +146,7 @@ pub fn raster(
                 deposit: link,
             },
         )?;
-        let pieces = libm::ceilf(libm::fabsf(t1 - t0) / MAX_PIECE).max(1.0) as usize;
+        let pieces = libm::ceilf(libm::fabsf(t1 - t0) / MAX_PIECE).fmax(1.0) as usize;
         for k in 1..=pieces {
             let p = point_of(&r, t0 + (t1 - t0) * k as f32 / pieces as f32);
             emit_move(

@@ -17,6 +17,7 @@ use heapless::Vec;
 use crate::config::{MAX_HALVES, MAX_HOLES};
 use crate::error::Limit;
 use crate::geometry::polyline;
+use crate::geometry::primitives::{fmax, MinMax};
 use crate::mcl::HalfEnd;
 use crate::toolpath::composition::{along, mcl_end_materials};
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -87,7 +88,7 @@ fn spokes(
         let usable = if half.end == HalfEnd::Wall {
             len
         } else {
-            (len - half_width).max(0.0)
+            (len - half_width).fmax(0.0)
         };
         // Never full: one spoke per half in `order`, of the same capacity.
         out.push(Spoke {
@@ -158,11 +159,11 @@ pub fn spiral(
         });
         let end = exit.unwrap_or((start + n - 1) % n);
         let extra = (end + n - start) % n;
-        let longest = sp.iter().map(|s| s.usable).fold(0.0f32, f32::max);
+        let longest = sp.iter().map(|s| s.usable).fold(0.0f32, fmax);
         let mean = sp.iter().map(|s| s.usable).sum::<f32>() / n as f32;
         let turns = match f {
-            ControlFunction::RoadWidth => libm::ceilf(longest / w).max(1.0),
-            _ => libm::roundf(mean / w).max(1.0),
+            ControlFunction::RoadWidth => libm::ceilf(longest / w).fmax(1.0),
+            _ => libm::roundf(mean / w).fmax(1.0),
         } as usize;
         if pos == 0 {
             stats.turns = turns.min(u16::MAX as usize) as u16;
@@ -183,7 +184,7 @@ pub fn spiral(
                     if v == total {
                         s.usable
                     } else {
-                        reach.min(s.usable)
+                        reach.fmin(s.usable)
                     }
                 }
             };

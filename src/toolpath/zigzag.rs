@@ -31,6 +31,7 @@ use heapless::Vec;
 
 use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::meander::{Fan, CHUNK};
@@ -228,8 +229,8 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         let mut lo = pts[0];
         let mut hi = pts[0];
         for q in pts.iter() {
-            lo = Point::new(lo.x.min(q.x), lo.y.min(q.y));
-            hi = Point::new(hi.x.max(q.x), hi.y.max(q.y));
+            lo = Point::new(lo.x.fmin(q.x), lo.y.fmin(q.y));
+            hi = Point::new(hi.x.fmax(q.x), hi.y.fmax(q.y));
         }
         boxes
             .push((lo, hi))
@@ -239,8 +240,8 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     for run in boxes.chunks(CHUNK) {
         let (mut lo, mut hi) = run[0];
         for &(a, b) in run {
-            lo = Point::new(lo.x.min(a.x), lo.y.min(a.y));
-            hi = Point::new(hi.x.max(b.x), hi.y.max(b.y));
+            lo = Point::new(lo.x.fmin(a.x), lo.y.fmin(a.y));
+            hi = Point::new(hi.x.fmax(b.x), hi.y.fmax(b.y));
         }
         chunks
             .push((lo, hi))

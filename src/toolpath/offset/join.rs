@@ -7,6 +7,7 @@ use super::{
     RELAXED_TOL, STRICT_TOL,
 };
 use crate::config::MAX_SITES;
+use crate::geometry::primitives::MinMax;
 use crate::toolpath::NARROWING;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
@@ -238,9 +239,9 @@ impl OffsetSpiral {
         for u in (0..n).filter(|&u| !self.loops[u].visited) {
             for v in (0..n).filter(|&v| self.loops[v].visited) {
                 let (lu, lv) = (&self.loops[u], &self.loops[v]);
-                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).max(lv.bbox.0.x - lu.bbox.1.x);
-                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).max(lv.bbox.0.y - lu.bbox.1.y);
-                if gap_x.max(gap_y) > 2.0 * w {
+                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).fmax(lv.bbox.0.x - lu.bbox.1.x);
+                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).fmax(lv.bbox.0.y - lu.bbox.1.y);
+                if gap_x.fmax(gap_y) > 2.0 * w {
                     continue;
                 }
                 let site = if lu.level == lv.level + 1 {
@@ -282,9 +283,9 @@ impl OffsetSpiral {
             let lu = &self.loops[u];
             for v in (0..n).filter(|&v| self.loops[v].visited && self.loops[v].level == lu.level) {
                 let lv = &self.loops[v];
-                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).max(lv.bbox.0.x - lu.bbox.1.x);
-                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).max(lv.bbox.0.y - lu.bbox.1.y);
-                if gap_x.max(gap_y) > reach {
+                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).fmax(lv.bbox.0.x - lu.bbox.1.x);
+                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).fmax(lv.bbox.0.y - lu.bbox.1.y);
+                if gap_x.fmax(gap_y) > reach {
                     continue;
                 }
                 // The point of `u` nearest `v`, sampled every tenth of a road.
@@ -302,7 +303,7 @@ impl OffsetSpiral {
                     continue;
                 }
                 let (pu, pv) = (self.at(u, su), self.at(v, sv));
-                let m = libm::ceilf(d / step).max(1.0) as usize;
+                let m = libm::ceilf(d / step).fmax(1.0) as usize;
                 // As narrow as a move is laid where no bend keeps it out of a keep-out band.
                 let narrowest = (1.0 - NARROWING) * w;
                 if !(0..=m).all(|i| slice.fits(pu.lerp(pv, i as f32 / m as f32), narrowest, 1e-4)) {

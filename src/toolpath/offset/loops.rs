@@ -3,6 +3,7 @@
 //! point, and whether a stretch of a loop is free for a bridge.
 
 use super::{capacity, distance, wrap, OffsetSpiral, RUN};
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, Point};
 use crate::{Error, Limit, Slice};
 use core::ops::Range;
@@ -102,8 +103,8 @@ impl OffsetSpiral {
             }
             let b = &mut self.runs[r];
             for q in [self.points[start + k], self.points[start + (k + 1) % n]] {
-                b.0 = Point::new(b.0.x.min(q.x), b.0.y.min(q.y));
-                b.1 = Point::new(b.1.x.max(q.x), b.1.y.max(q.y));
+                b.0 = Point::new(b.0.x.fmin(q.x), b.0.y.fmin(q.y));
+                b.1 = Point::new(b.1.x.fmax(q.x), b.1.y.fmax(q.y));
             }
         }
         Ok(())

@@ -7,6 +7,7 @@ use super::{
     FIRST_TURN_MARGIN, MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, RUN, SIMPLIFY_TOL,
 };
 use crate::field::GridMemory;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
@@ -36,7 +37,7 @@ impl OffsetSpiral {
         stats: &mut OffsetStats,
     ) -> Result<(), Error> {
         let w = slice.settings().road_width;
-        let top = mem.values.iter().fold(0.0f32, |a, &b| a.max(b));
+        let top = mem.values.iter().fold(0.0f32, |a, &b| a.fmax(b));
         self.points.clear();
         self.run_arc.clear();
         self.runs.clear();
@@ -254,8 +255,8 @@ impl OffsetSpiral {
                 }
             }
             bbox = (
-                Point::new(bbox.0.x.min(p.x), bbox.0.y.min(p.y)),
-                Point::new(bbox.1.x.max(p.x), bbox.1.y.max(p.y)),
+                Point::new(bbox.0.x.fmin(p.x), bbox.0.y.fmin(p.y)),
+                Point::new(bbox.1.x.fmax(p.x), bbox.1.y.fmax(p.y)),
             );
         }
         let length = s + pts[pts.len() - 1].dist(pts[0]);

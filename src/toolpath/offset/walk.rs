@@ -7,6 +7,7 @@ use super::{
     LAID_TOL, NONE, RIDGE_MARGIN, RIDGE_STEPS, RIDGE_TOL_PER_ROAD, WIDEN_TRIES, WIDTH_STEP,
 };
 use crate::config::MAX_LOOPS;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, Point};
 use crate::toolpath::composition::BlendedField;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -131,7 +132,7 @@ impl OffsetSpiral {
         to: Point,
     ) -> Result<(), Error> {
         let w = slice.settings().road_width;
-        let steps = libm::ceilf(from.dist(to) / (WIDTH_STEP * w)).max(1.0) as usize;
+        let steps = libm::ceilf(from.dist(to) / (WIDTH_STEP * w)).fmax(1.0) as usize;
         let at = |k: usize| from.lerp(to, k as f32 / steps as f32);
         let end = self.vertex(slice, field, to, true);
         let width_at = |q: Point| self.widen(slice, q, nearest(slice, q)).1;
@@ -303,7 +304,7 @@ fn widened(
     // never traced: a sliver of a level too thin for the grid near a saddle of `D`). The
     // widening itself stops at `max_width`, short of a far ridge: a partial fill of a gap
     // wider than the widest road still covers most of it.
-    let reach = (slice.settings().max_width - 0.5 * w).max(2.0 * w) + RIDGE_MARGIN;
+    let reach = (slice.settings().max_width - 0.5 * w).fmax(2.0 * w) + RIDGE_MARGIN;
     let mut ridge = reach;
     for f in 0..=holes {
         // The feature's own ridges count too (a non-convex feature's parts face each other):
@@ -333,7 +334,7 @@ fn widened(
         }
         ridge = lo;
     }
-    let g = (ridge - 0.5 * w - RIDGE_MARGIN).min(slice.settings().max_width - w);
+    let g = (ridge - 0.5 * w - RIDGE_MARGIN).fmin(slice.settings().max_width - w);
     if g <= 0.0 {
         return (p, w);
     }
@@ -344,7 +345,7 @@ fn widened(
     let next = if ridge >= w {
         // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
         // finest road) would only be clipped, never wrapped.
-        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).max(0.0) as u16 + 1;
+        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16 + 1;
         if laid(p + n * w, level, LAID_TOL * w) {
             return (p, w);
         }

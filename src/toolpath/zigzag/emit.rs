@@ -4,6 +4,7 @@
 use super::ends::Ends;
 use super::{EDGE_MARGIN, END_STEPS, NONE};
 use crate::error::Limit;
+use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::KeepOut;
 use crate::toolpath::composition::{along, mcl_end_materials};
@@ -252,8 +253,8 @@ pub(super) fn inner_end(ends: &Ends, curves: &[KeepOut<'_>], id: u16) -> bool {
 pub(super) fn shared_strip(slice: &Slice) -> (f32, f32, f32) {
     let w = slice.settings().road_width;
     let share = (0.5 * w - 2.0 * EDGE_MARGIN)
-        .max(slice.settings().min_width)
-        .min(w - 2.0 * EDGE_MARGIN);
+        .fmax(slice.settings().min_width)
+        .fmin(w - 2.0 * EDGE_MARGIN);
     let nearer = 0.5 * share + EDGE_MARGIN - 0.5 * w;
     let farther = 0.5 * w - 0.5 * share - EDGE_MARGIN;
     (share, nearer, farther)
