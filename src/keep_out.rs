@@ -7,7 +7,7 @@
 //! outline; where the feature is concave the point is pulled back to exactly half a road
 //! width.
 
-use crate::geometry::{polygon, Point};
+use crate::geometry::{polygon, primitives, Point};
 use crate::Feature;
 
 /// Which side of the feature the printable region lies on.
@@ -66,12 +66,7 @@ impl<'a> KeepOut<'a> {
 
     /// `s` wrapped into `[0, length)`.
     pub fn wrap(&self, s: f32) -> f32 {
-        let r = s % self.length;
-        if r < 0.0 {
-            r + self.length
-        } else {
-            r
-        }
+        primitives::wrap(s, self.length)
     }
 
     /// The feature's boundary point at `s` and the unit normal towards the region there.

@@ -377,3 +377,24 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4096))]
+
+    /// `geometry::primitives::wrap` takes two shortcuts before `fmodf`; it must answer as the
+    /// plain `fmod`-and-shift does, bit for bit, within a length of zero, two lengths, and far.
+    #[test]
+    fn wrap_answers_as_fmod(len in 1e-3f32..1e4, k in -4.0f32..4.0, far in -1e6f32..1e6) {
+        let plain = |x: f32| {
+            let r = libm::fmodf(x, len);
+            if r < 0.0 { r + len } else { r }
+        };
+        for x in [k * len, far, -len, len, 2.0 * len, -0.0, 0.0] {
+            prop_assert_eq!(
+                hollowpath::geometry::primitives::wrap(x, len).to_bits(),
+                plain(x).to_bits(),
+                "wrap({}, {})", x, len
+            );
+        }
+    }
+}

@@ -28,6 +28,26 @@ pub fn fmax(a: f32, b: f32) -> f32 {
     }
 }
 
+/// `x` wrapped into `[0, len)` on a closed curve of length `len` (the keep-out curves, the
+/// offset spiral's loops): `fmod` less than zero moved up by `len`. `fmod` is exact, and so
+/// are the two shortcuts taken before the (software, bit-by-bit) `fmodf` routine: `x` itself
+/// within one length of zero, `x - len` within two lengths (exact by Sterbenz's lemma).
+#[inline]
+pub fn wrap(x: f32, len: f32) -> f32 {
+    let r = if x > -len && x < len {
+        x
+    } else if x >= len && x < 2.0 * len {
+        x - len
+    } else {
+        libm::fmodf(x, len)
+    };
+    if r < 0.0 {
+        r + len
+    } else {
+        r
+    }
+}
+
 /// [`fmin`] and [`fmax`] as methods, for the core's `f32` arithmetic in place of `f32::min`
 /// and `f32::max` (calls on the Cortex-M4F; the same answers).
 pub trait MinMax {

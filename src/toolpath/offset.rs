@@ -40,7 +40,7 @@ use heapless::Vec;
 use crate::config::{CONTOUR_POINTS, MAX_LOOPS, MAX_SITES};
 use crate::digest::Fnv;
 use crate::field::GridMemory;
-use crate::geometry::{Grid, Point};
+use crate::geometry::{primitives, Grid, Point};
 use crate::toolpath::PathSink;
 use crate::{Error, Limit, Material, Plan, Settings, Slice};
 
@@ -288,14 +288,9 @@ const LAID_TOL: f32 = 0.1;
 /// How many times a widening that crosses the ridge sideways is halved before it is given up.
 const WIDEN_TRIES: u32 = 3;
 
-/// `x` wrapped into `[0, len)`.
+/// `x` wrapped into `[0, len)` ([`primitives::wrap`]).
 fn wrap(x: f32, len: f32) -> f32 {
-    let r = libm::fmodf(x, len);
-    if r < 0.0 {
-        r + len
-    } else {
-        r
-    }
+    primitives::wrap(x, len)
 }
 
 fn capacity(limit: Limit) -> Error {
