@@ -110,12 +110,21 @@ pub fn simplify<const N: usize>(
 /// assert!(!polylines_cross(&[p(0.0, 0.0), p(1.0, 0.0)], &[p(1.0, 0.0), p(1.0, 1.0)])); // shared end
 /// ```
 pub fn polylines_cross(p: &[Point], q: &[Point]) -> bool {
+    polylines_cross_boxed(p, bbox(p), q, bbox(q))
+}
+
+/// [`polylines_cross`] for a caller that holds both polylines' bounding boxes (`pb` must be
+/// `bbox(p)` and `qb` `bbox(q)`): a search testing one polyline against many keeps them
+/// instead of measuring each again per pair.
+pub fn polylines_cross_boxed(
+    p: &[Point],
+    pb: (Point, Point),
+    q: &[Point],
+    qb: (Point, Point),
+) -> bool {
     // A segment of `p` clear of `q`'s box meets none of `q`'s segments (each is in that box):
-    // one box test instead of one per segment of `q`.
-    let qb = bbox(q);
-    // Likewise only the run of `q`'s segments from the first to the last that meets `p`'s box
-    // can meet a segment of `p`.
-    let pb = bbox(p);
+    // one box test instead of one per segment of `q`. Likewise only the run of `q`'s segments
+    // from the first to the last that meets `p`'s box can meet a segment of `p`.
     let meets_p = |b: &[Point]| boxes_overlap(bbox(b), pb, 0.0);
     let (Some(first), Some(last)) = (
         q.windows(2).position(meets_p),

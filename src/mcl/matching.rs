@@ -262,8 +262,8 @@ pub(crate) fn crosses_finished(
 }
 
 /// [`crosses_finished`] with each half's bounding box from `box_of` (the half's index and
-/// the half): a caller that checks many moves keeps the boxes instead of measuring every half
-/// again for each.
+/// the half; exactly `bbox` of its points): a caller that checks many moves keeps the boxes
+/// instead of measuring every half again for each.
 pub(crate) fn crosses_finished_boxed(
     halves: &Halves,
     box_of: impl Fn(usize, &Half) -> (Point, Point),
@@ -273,12 +273,16 @@ pub(crate) fn crosses_finished_boxed(
 ) -> bool {
     let bb = primitives::bbox(pts);
     halves.iter().enumerate().any(|(k, h)| {
-        h.alive
-            && holes.contains(&h.hole)
+        if !(h.alive
+            && holes.iter().any(|&i| i == h.hole)
             && !skip.contains(&k)
-            && (h.end == HalfEnd::Wall || h.partner.is_some())
-            && polyline::boxes_overlap(bb, box_of(k, h), 1e-4)
-            && polyline::polylines_cross(pts, halves.points_of(h))
+            && (h.end == HalfEnd::Wall || h.partner.is_some()))
+        {
+            return false;
+        }
+        let hb = box_of(k, h);
+        polyline::boxes_overlap(bb, hb, 1e-4)
+            && polyline::polylines_cross_boxed(pts, bb, halves.points_of(h), hb)
     })
 }
 
