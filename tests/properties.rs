@@ -356,21 +356,25 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(2048))]
 
     /// `geometry::primitives::{fmin, fmax}` (the core's `f32::min`/`max` by inline comparisons)
-    /// answer as `f32::min`/`max` do: the smaller or larger of two numbers, the other where one
-    /// is NaN (equal numbers of either sign give one of them).
+    /// answer as `f32::min`/`max` do (the smaller or larger of two numbers, the other where
+    /// one is NaN), and bit for bit as libm's `fminf`/`fmaxf` (what `f32::min`/`max` call on
+    /// the Cortex-M4F), ties of zeros of either sign included.
     #[test]
     fn inline_min_and_max_answer_as_f32_min_and_max(
         a in proptest::num::f32::ANY,
         b in proptest::num::f32::ANY,
     ) {
         use hollowpath::geometry::primitives::{fmax, fmin};
-        for (x, y) in [(a, b), (b, a), (a, f32::NAN), (f32::NAN, a), (a, a)] {
+        let pairs = [(a, b), (b, a), (a, f32::NAN), (f32::NAN, a), (a, a), (0.0, -0.0), (-0.0, 0.0)];
+        for (x, y) in pairs {
             let (lo, hi) = (fmin(x, y), fmax(x, y));
             if x.is_nan() && y.is_nan() {
                 prop_assert!(lo.is_nan() && hi.is_nan());
-            } else if x == y {
-                prop_assert!(lo == x && hi == x);
-            } else {
+                continue;
+            }
+            prop_assert_eq!(lo.to_bits(), libm::fminf(x, y).to_bits(), "fmin({}, {})", x, y);
+            prop_assert_eq!(hi.to_bits(), libm::fmaxf(x, y).to_bits(), "fmax({}, {})", x, y);
+            if x != y {
                 prop_assert_eq!(lo.to_bits(), x.min(y).to_bits(), "fmin({}, {})", x, y);
                 prop_assert_eq!(hi.to_bits(), x.max(y).to_bits(), "fmax({}, {})", x, y);
             }

@@ -186,8 +186,9 @@ fn elf_sections(elf: &[u8]) -> Vec<(String, u32, u32, usize)> {
         .collect()
 }
 
-/// The names of the symbols an ELF32 file defines (its `.symtab`, with the string table the
-/// symbol table's header links to).
+/// The names of every symbol in an ELF32 file's `.symtab` (local ones too: after LTO a
+/// library routine such as `fminf` may stay only as a local symbol), read through the string
+/// table the symbol table's header links to.
 fn elf_symbols(elf: &[u8]) -> Vec<String> {
     let u16_at = |o: usize| u16::from_le_bytes([elf[o], elf[o + 1]]) as usize;
     let u32_at = |o: usize| u32::from_le_bytes(elf[o..o + 4].try_into().unwrap()) as usize;

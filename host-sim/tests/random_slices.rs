@@ -64,8 +64,9 @@ fn default_layers_on_random_slices_as_printed() {
 
 /// Where two features come within about one and a half road widths, the region a turn fits in
 /// narrows to a channel thinner than the distance grid's spacing; the traced turn closes on
-/// both sides of it and the pocket beyond became an island loop reached by travel (on 6 of
-/// the benchmark's 200 slices, among them these). The join across the pinch lays it in the
+/// both sides of it and the pocket beyond became an island loop reached by travel (6 of the 7
+/// of the benchmark's 200 slices that had 2-3 starts, among them these; the seventh was a
+/// small loop at a peak, joined the same way). The join across the pinch lays it in the
 /// one road: a bridge out and one back through the channel.
 #[test]
 fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
@@ -82,7 +83,7 @@ fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
         let m = meter.measure(l.pattern, &l.path, &|_| None);
         let what = format!("{} ({}): {m:?}", r.description, l.note);
         println!("{what}");
-        assert!(l.note.contains("0 jump(s)"), "{what}");
+        assert!(l.note.contains(", 0 jump(s)"), "{what}");
         assert_eq!(m.starts, 1, "{what}");
         assert!(m.spill < 5e-4, "{what}");
         assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");

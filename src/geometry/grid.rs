@@ -1,5 +1,5 @@
+use super::primitives::MinMax;
 use super::Point;
-use crate::geometry::primitives::MinMax;
 
 /// A regular grid of nodes over a box: `nx * ny` nodes `h` apart, node `(i, j)` at
 /// `origin + (i h, j h)`, stored row by row (`k = j * nx + i`).

@@ -269,10 +269,12 @@ impl OffsetSpiral {
     /// and the traced turn closes on each side of it: the pocket beyond becomes an island loop
     /// that runs beside no other. Here such a loop is joined to the reached loop of its level
     /// nearest it (at most [`PINCH_BRIDGE_ROADS`] road widths away), by a bridge out and one
-    /// back [`PINCH_GAP`] road widths apart, where every point of the bridge fits a road as
-    /// narrow as a move is laid where it would sag into a keep-out band (the channel is
-    /// there). The two bridges lie almost on each other: a road width or so of
-    /// road laid twice instead of an extrusion start.
+    /// back, their ends [`PINCH_GAP`] road widths apart on each loop, where the channel is
+    /// there: along the bridge the distance to the features stays within half a road of the
+    /// loops' own, and a road fits there as narrow as a move is laid where it would sag into
+    /// a keep-out band. The two bridges lie almost on each other (they cross: facing loops of
+    /// one level run opposite ways, and the walk turns back along the other loop): a road
+    /// width or so of road laid twice instead of an extrusion start.
     pub(super) fn pinch_join(&self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
         let n = self.loops.len();
         let reach = PINCH_BRIDGE_ROADS * w;
@@ -304,9 +306,18 @@ impl OffsetSpiral {
                 }
                 let (pu, pv) = (self.at(u, su), self.at(v, sv));
                 let m = libm::ceilf(d / step).fmax(1.0) as usize;
-                // As narrow as a move is laid where no bend keeps it out of a keep-out band.
-                let narrowest = (1.0 - NARROWING) * w;
-                if !(0..=m).all(|i| slice.fits(pu.lerp(pv, i as f32 / m as f32), narrowest, 1e-4)) {
+                // The channel is there at this level: along the bridge the distance to the
+                // features stays within half a road of the loops' own (clear of the roads of
+                // the turns below and above), and a road fits, as narrow as a move is laid
+                // where no bend keeps it out of a keep-out band.
+                let level = slice.clearance(pu);
+                let low = (0.5 * (1.0 - NARROWING) * w).fmax(level - 0.5 * w) - 1e-4;
+                let high = level + 0.5 * w + 1e-4;
+                let in_channel = |i: usize| {
+                    let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
+                    c >= low && c <= high
+                };
+                if !(0..=m).all(in_channel) {
                     continue;
                 }
                 let half_gap = 0.5 * PINCH_GAP * w;
