@@ -6,8 +6,10 @@
 //! in [`config`], and a full buffer is an [`Error::Capacity`] naming the [`Limit`]. Nothing here
 //! reads a clock, a global or a peripheral, and all math goes through `libm` (square roots
 //! through `hollowpath_fpu::sqrtf`: the FPU's correctly rounded instruction on the Cortex-M4F,
-//! libm's elsewhere, the same bits), so the host and the MCU compute bit-identical plans
-//! ([`Plan::digest`]).
+//! libm's elsewhere, the same bits; the smaller and larger of two numbers through
+//! [`geometry::primitives::fmin`]/[`fmax`](geometry::primitives::fmax), comparisons inline,
+//! because the M4F has no `VMINNM` and `f32::min` there is a call), so the host and the MCU
+//! compute bit-identical plans ([`Plan::digest`]).
 //!
 //! ## The data's journey
 //!
