@@ -6,7 +6,8 @@
 //! `cargo bench -p host-sim --bench random` draws 200 slices from seed 1;
 //! `HOLLOWPATH_SLICES=N`, `HOLLOWPATH_SEED=S` and `HOLLOWPATH_MAX_HOLES=H` change that, and
 //! `HOLLOWPATH_DUMP=DIR` writes every slice that misses the bar there as a slice file (its
-//! seed in the name) to plan again with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
+//! seed in the name, `simplify_tolerance` 0 so that its contours stay as drawn) to plan again
+//! with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
 //! slice's figures per layer there.
 
 use std::sync::Mutex;

@@ -265,7 +265,14 @@ pub fn to_json(slice: &Slice, name: &str) -> String {
         "units": "mm",
         "outer": feature(slice.wall()),
         "holes": slice.holes().iter().map(feature).collect::<Vec<_>>(),
-        "settings": {"road_width": s.road_width, "layer_height": s.layer_height},
+        // A drawn slice's features are built as drawn; read back, contours of more than
+        // `SIMPLIFY_ABOVE_VERTICES` vertices would be simplified within the default
+        // tolerance and plan differently: a tolerance of 0 keeps them as drawn.
+        "settings": {
+            "road_width": s.road_width,
+            "layer_height": s.layer_height,
+            "simplify_tolerance": 0.0,
+        },
     }))
     .expect("a slice is plain JSON")
 }

@@ -89,3 +89,18 @@ fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
         assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
     }
 }
+
+/// A slice the benchmark dumps (`HOLLOWPATH_DUMP`, `random_slice::to_json`) plans again to the
+/// same plan: its contours are kept as drawn (seed 111's wall has 772 vertices, which the
+/// default tolerance would simplify, and its spiral's overfill then read 0.028 instead of the
+/// benchmark's 0.047).
+#[test]
+fn a_dumped_random_slice_plans_again_as_drawn() {
+    let r = host_sim::random_slice::draw(111, &Draw::default()).expect("a slice");
+    assert!(r.slice.wall().points().len() > hollowpath::config::SIMPLIFY_ABOVE_VERTICES);
+    let text = host_sim::random_slice::to_json(&r.slice, "random-111");
+    let again = host_sim::slice_file::parse(&text).expect("the dump reads back");
+    assert_eq!(again.slice.wall().points(), r.slice.wall().points());
+    let digest = |s: &hollowpath::Slice| host_sim::plan(s).expect("a plan").last_plan().digest();
+    assert_eq!(digest(&again.slice), digest(&r.slice));
+}
