@@ -19,7 +19,7 @@ use crate::config::{
     GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
 };
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{Grid, Point};
+use crate::geometry::{polygon, Grid, Point};
 use crate::{Error, Limit, Slice};
 
 /// Label of a node outside the wall's printable region.
@@ -164,9 +164,14 @@ impl Field {
                 } else {
                     half + (0.5 * (dj - di)).fmax(0.0)
                 };
-                let wc = slice
-                    .wall_clearance_within(p, cap)
-                    .map_or(f32::INFINITY, |c| c - half);
+                // Every box of the wall's chunks farther than `cap` (plus rounding): its
+                // clearance is larger still (the node is inside the wall).
+                let reach = cap + polygon::rounding_slack(p, slice.wall().bbox());
+                let wc = if reach >= 0.0 && slice.wall().nearest_box2(p) > reach * reach {
+                    f32::INFINITY
+                } else {
+                    slice.wall_clearance(p) - half
+                };
                 if wc < 0.0 {
                     (OUTSIDE, 1.0)
                 } else if di < half {

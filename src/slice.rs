@@ -824,25 +824,30 @@ impl Slice {
     /// The distance from `p` to feature `k` ([`feature_at`](Self::feature_at)'s numbering),
     /// positive on the printable side of it (outside a hole, inside the wall).
     pub fn clearance_to(&self, k: usize, p: Point) -> f32 {
+        self.nearest_of(k, p).0
+    }
+
+    /// [`clearance_to`](Self::clearance_to) feature `k` (the wall for `holes().len()`) and its
+    /// nearest boundary point, as [`Feature::nearest`] gives it.
+    fn nearest_of(&self, k: usize, p: Point) -> (f32, Nearest) {
         match self.holes.get(k) {
-            Some(h) => h.nearest(p).distance,
-            None => -self.wall.nearest(p).distance,
+            Some(h) => {
+                let n = h.nearest(p);
+                (n.distance, n)
+            }
+            None => {
+                let n = self.wall.nearest(p);
+                (-n.distance, n)
+            }
         }
     }
 
     /// [`clearance_to`](Self::clearance_to) and its gradient (the unit vector away from
     /// the feature on its printable side).
     pub fn clearance_gradient_to(&self, k: usize, p: Point) -> (f32, Point) {
-        match self.holes.get(k) {
-            Some(h) => {
-                let n = h.nearest(p);
-                (n.distance, n.gradient(p))
-            }
-            None => {
-                let n = self.wall.nearest(p);
-                (-n.distance, -n.gradient(p))
-            }
-        }
+        let (d, n) = self.nearest_of(k, p);
+        let g = n.gradient(p);
+        (d, if k < self.holes.len() { g } else { -g })
     }
 
     /// The outer wall.
@@ -861,19 +866,6 @@ impl Slice {
     /// Distance from `p` to the wall, positive inside.
     pub fn wall_clearance(&self, p: Point) -> f32 {
         -self.wall.signed_distance(p)
-    }
-
-    /// [`wall_clearance`](Self::wall_clearance) where it may be `cap` or less; `None` where
-    /// `p` is inside the wall and every box of the wall's chunks of edges is farther than
-    /// `cap` plus [`polygon::rounding_slack`], so the clearance is certainly above `cap`
-    /// (the containment test costs a fraction of the distance search).
-    pub fn wall_clearance_within(&self, p: Point, cap: f32) -> Option<f32> {
-        let reach = cap + polygon::rounding_slack(p, self.wall.bbox);
-        if reach >= 0.0 && self.wall.nearest_box2(p) > reach * reach && self.wall.contains(p) {
-            None
-        } else {
-            Some(self.wall_clearance(p))
-        }
     }
 
     /// The nearest and second-nearest hole to `p` with their signed distances
@@ -933,26 +925,17 @@ impl Slice {
                     self.wall.nearest_box2(p),
                 ))),
         );
-        let measure = |k: usize| {
-            if k == wall_id {
-                let n = self.wall.nearest(p);
-                (-n.distance, n)
-            } else {
-                let n = self.holes[k].nearest(p);
-                (n.distance, n)
-            }
-        };
         // The wall ranks before every hole among equal distances.
         let rank = |k: usize| if k == wall_id { 0 } else { k + 1 };
         let first = (0..wall_id).fold(wall_id, |m, k| if bounds[k] < bounds[m] { k } else { m });
-        let (d, n) = measure(first);
+        let (d, n) = self.nearest_of(first, p);
         let mut best = (first, d, n);
         let slack = polygon::rounding_slack(p, self.wall.bbox);
         for k in (0..=wall_id).filter(|&k| k != first) {
             if bounds[k] > best.1 + slack {
                 continue;
             }
-            let (d, n) = measure(k);
+            let (d, n) = self.nearest_of(k, p);
             if d < best.1 || (d == best.1 && rank(k) < rank(best.0)) {
                 best = (k, d, n);
             }

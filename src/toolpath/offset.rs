@@ -40,7 +40,8 @@ use heapless::Vec;
 use crate::config::{CONTOUR_POINTS, MAX_LOOPS, MAX_SITES};
 use crate::digest::Fnv;
 use crate::field::GridMemory;
-use crate::geometry::{primitives, Grid, Point};
+use crate::geometry::primitives::wrap;
+use crate::geometry::{Grid, Point};
 use crate::toolpath::PathSink;
 use crate::{Error, Limit, Material, Plan, Settings, Slice};
 
@@ -287,11 +288,6 @@ const EDGE_DIRECTIONS: [(f32, f32); 12] = [
 const LAID_TOL: f32 = 0.1;
 /// How many times a widening that crosses the ridge sideways is halved before it is given up.
 const WIDEN_TRIES: u32 = 3;
-
-/// `x` wrapped into `[0, len)` ([`primitives::wrap`]).
-fn wrap(x: f32, len: f32) -> f32 {
-    primitives::wrap(x, len)
-}
 
 fn capacity(limit: Limit) -> Error {
     Error::Capacity {

@@ -7,6 +7,7 @@ use super::{
     RELAXED_TOL, STRICT_TOL,
 };
 use crate::config::MAX_SITES;
+use crate::geometry::polyline;
 use crate::geometry::primitives::MinMax;
 use crate::toolpath::NARROWING;
 use crate::{Error, Limit, Slice};
@@ -239,9 +240,7 @@ impl OffsetSpiral {
         for u in (0..n).filter(|&u| !self.loops[u].visited) {
             for v in (0..n).filter(|&v| self.loops[v].visited) {
                 let (lu, lv) = (&self.loops[u], &self.loops[v]);
-                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).fmax(lv.bbox.0.x - lu.bbox.1.x);
-                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).fmax(lv.bbox.0.y - lu.bbox.1.y);
-                if gap_x.fmax(gap_y) > 2.0 * w {
+                if !polyline::boxes_overlap(lu.bbox, lv.bbox, 2.0 * w) {
                     continue;
                 }
                 let site = if lu.level == lv.level + 1 {
@@ -285,9 +284,7 @@ impl OffsetSpiral {
             let lu = &self.loops[u];
             for v in (0..n).filter(|&v| self.loops[v].visited && self.loops[v].level == lu.level) {
                 let lv = &self.loops[v];
-                let gap_x = (lu.bbox.0.x - lv.bbox.1.x).fmax(lv.bbox.0.x - lu.bbox.1.x);
-                let gap_y = (lu.bbox.0.y - lv.bbox.1.y).fmax(lv.bbox.0.y - lu.bbox.1.y);
-                if gap_x.fmax(gap_y) > reach {
+                if !polyline::boxes_overlap(lu.bbox, lv.bbox, reach) {
                     continue;
                 }
                 // The point of `u` nearest `v`, sampled every tenth of a road.
