@@ -274,7 +274,7 @@ pub(crate) fn crosses_finished_boxed(
     let bb = primitives::bbox(pts);
     halves.iter().enumerate().any(|(k, h)| {
         if !(h.alive
-            && holes.iter().any(|&i| i == h.hole)
+            && holes.contains(&h.hole)
             && !skip.contains(&k)
             && (h.end == HalfEnd::Wall || h.partner.is_some()))
         {
