@@ -353,6 +353,58 @@ proptest! {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+
+    /// `BlendedField::at` looks at the MCL nearest to its last query first and skips MCLs by
+    /// their boxes; whatever came before, it must answer as the plain search over every MCL
+    /// (the lowest-numbered of the nearest, blended at its parameter), bit for bit. Queries
+    /// wander along a path (as a road's vertices come) and jump anywhere in the wall's box.
+    #[test]
+    fn blended_field_answers_as_the_plain_search(
+        rx in 9.0f32..17.0,
+        ry in 9.0f32..17.0,
+        wall_wobble in 0.0f32..0.15,
+        holes in proptest::collection::vec(hole_spec(), 1..5),
+        queries in proptest::collection::vec((-1.2f32..1.2, -1.2f32..1.2, any::<bool>()), 160),
+    ) {
+        use hollowpath::geometry::polyline::project_points;
+        use hollowpath::toolpath::composition::{blend, mcl_end_materials, BlendedField};
+        let slice = random_slice(rx, ry, wall_wobble, &holes, 0.4);
+        prop_assume!(slice.is_some());
+        let slice = slice.unwrap();
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(&slice).map_err(|e| TestCaseError::fail(format!("{e}")))?;
+        let field = BlendedField::new(&slice, plan);
+        let mut p = Point::new(0.0, 0.0);
+        for (qx, qy, jump) in queries {
+            // A step of a tenth of the box, or a jump anywhere in it.
+            p = if jump {
+                Point::new(qx * rx, qy * ry)
+            } else {
+                p + Point::new(qx * rx, qy * ry) * 0.1
+            };
+            let mut plain: Option<(f32, usize, f32)> = None;
+            for (k, m) in plan.mcls.iter().enumerate() {
+                let ((s, _, d), length) = project_points(plan.points_iter(m), p);
+                if plain.is_none_or(|b| d < b.0) {
+                    plain = Some((d, k, s / length.max(1e-9)));
+                }
+            }
+            let expected = plain.map(|(_, k, t)| {
+                let (a, b) = mcl_end_materials(&slice, plan, k);
+                blend(&a, &b, t)
+            });
+            let got = field.at(p);
+            prop_assert_eq!(
+                got.map(|m| m.map(f32::to_bits)),
+                expected.map(|m| m.map(f32::to_bits)),
+                "at {:?}", p
+            );
+        }
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig::with_cases(2048))]
 
     /// `geometry::primitives::{fmin, fmax}` (the core's `f32::min`/`max` by inline comparisons)

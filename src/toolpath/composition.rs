@@ -1,9 +1,11 @@
 //! Composition: blended between the materials of the features an MCL joins, by parametric
 //! distance along it (paper, section 3).
 
+use core::cell::Cell;
+
 use crate::config::CHANNELS;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polyline, primitives, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{Material, Plan, Slice, Target};
 
 /// `(1 - t) a + t b`, channel by channel; exactly `a` at `t = 0` and `b` at `t = 1`.
@@ -76,6 +78,8 @@ pub struct BlendedField<'a> {
     plan: &'a Plan,
     /// The bounding box of MCL `k` of the plan at `k` (the rest unused).
     boxes: [(Point, Point); crate::config::MAX_MCLS],
+    /// The MCL nearest to the last point asked about: looked at first next time.
+    hint: Cell<usize>,
 }
 
 impl<'a> BlendedField<'a> {
@@ -86,24 +90,47 @@ impl<'a> BlendedField<'a> {
         for (slot, m) in boxes.iter_mut().zip(plan.mcls.iter()) {
             *slot = primitives::bbox(&plan.points(m));
         }
-        BlendedField { slice, plan, boxes }
+        BlendedField {
+            slice,
+            plan,
+            boxes,
+            hint: Cell::new(0),
+        }
     }
 
     /// The composition at `p`; `None` for a plan without MCLs.
+    ///
+    /// The nearest MCL blends it (of equal distances, the lowest-numbered). The MCL nearest to
+    /// the previous query is looked at first: a road's vertices come one after another, so the
+    /// best so far is near the answer early and the boxes of most MCLs rule them out. The
+    /// answer does not depend on that order: a box is skipped only when it is farther than
+    /// the best so far by more than rounding could move a distance.
     pub fn at(&self, p: Point) -> Option<Material> {
-        let mut best: Option<(f32, usize, f32)> = None;
-        for (k, m) in self.plan.mcls.iter().enumerate() {
-            if best
-                .is_some_and(|b| crate::geometry::polygon::bbox_distance(self.boxes[k], p) >= b.0)
-            {
-                continue;
+        let mcls = &self.plan.mcls;
+        // (distance, MCL, parameter, squared reach)
+        let mut best: (f32, usize, f32, f32) = (f32::INFINITY, usize::MAX, 0.0, f32::INFINITY);
+        let slack = polygon::rounding_slack(p, self.slice.wall().bbox());
+        let visit = |k: usize, best: &mut (f32, usize, f32, f32)| {
+            let ((s, _, d), length) = polyline::project_points(self.plan.points_iter(&mcls[k]), p);
+            if d < best.0 || (d == best.0 && k < best.1) {
+                let r = d + slack;
+                *best = (d, k, s / length.fmax(1e-9), r * r);
             }
-            let ((s, _, d), length) = polyline::project_points(self.plan.points_iter(m), p);
-            if best.is_none_or(|b| d < b.0) {
-                best = Some((d, k, s / length.fmax(1e-9)));
+        };
+        let hint = self.hint.get();
+        if hint < mcls.len() {
+            visit(hint, &mut best);
+        }
+        for k in 0..mcls.len() {
+            if k != hint && polygon::bbox_distance2(self.boxes[k], p) <= best.3 {
+                visit(k, &mut best);
             }
         }
-        let (_, k, t) = best?;
+        if best.1 == usize::MAX {
+            return None;
+        }
+        self.hint.set(best.1);
+        let (_, k, t, _) = best;
         let (a, b) = mcl_end_materials(self.slice, self.plan, k);
         Some(blend(&a, &b, t))
     }

@@ -330,6 +330,13 @@ fn widened(
                 lo = mid;
             } else {
                 hi = mid;
+                // The ridge found will lie below `hi`, and the features after this one only
+                // lower it: the road is not widened, whatever the rest of the search finds
+                // (the same sum as `g` below, and a float difference never falls as its
+                // first term grows).
+                if hi - 0.5 * w - RIDGE_MARGIN <= 0.0 {
+                    return (p, w);
+                }
             }
         }
         ridge = lo;
@@ -358,7 +365,16 @@ fn widened(
     // widen less, or not at all.
     let in_cell = |q: Point| {
         let mine = slice.clearance_to(own, q);
-        (0..=holes).all(|f| f == own || slice.clearance_to(f, q) >= mine)
+        // A hole whose box is farther than `mine` (by more than rounding) is farther still.
+        let beyond = mine + polygon::rounding_slack(q, slice.wall().bbox());
+        (0..=holes).all(|f| {
+            f == own
+                || slice
+                    .holes()
+                    .get(f)
+                    .is_some_and(|h| polygon::bbox_distance(h.bbox(), q) > beyond)
+                || slice.clearance_to(f, q) >= mine
+        })
     };
     let mut g = g;
     for _ in 0..WIDEN_TRIES {
