@@ -98,13 +98,17 @@ impl<'a> BlendedField<'a> {
         }
     }
 
-    /// The composition at `p`; `None` for a plan without MCLs.
+    /// The composition at `p`; `None` for a plan without MCLs (or a NaN point, whose
+    /// distances are never less than any).
     ///
-    /// The nearest MCL blends it (of equal distances, the lowest-numbered). The MCL nearest to
-    /// the previous query is looked at first: a road's vertices come one after another, so the
-    /// best so far is near the answer early and the boxes of most MCLs rule them out. The
-    /// answer does not depend on that order: a box is skipped only when it is farther than
-    /// the best so far by more than rounding could move a distance.
+    /// The nearest MCL blends it (of equal distances, the lowest-numbered): the answer of the
+    /// full search over every MCL. The MCL nearest to the previous query is looked at first:
+    /// a road's vertices come one after another, so the best so far is near the answer early
+    /// and the boxes of most MCLs rule them out. The answer does not depend on that order: a
+    /// box is skipped only when it is farther than the best so far by more than rounding
+    /// could move a distance. (The search in MCL order before it skipped a box as far as the
+    /// best without that slack, so it could in principle miss a minimum an ulp inside a box's
+    /// edge; every reference and random digest came out the same.)
     pub fn at(&self, p: Point) -> Option<Material> {
         let mcls = &self.plan.mcls;
         // (distance, MCL, parameter, squared reach)
