@@ -167,7 +167,8 @@ impl Field {
                 // Every box of the wall's chunks farther than `cap` (plus rounding): its
                 // clearance is larger still (the node is inside the wall).
                 let reach = cap + polygon::rounding_slack(p, slice.wall().bbox());
-                let wc = if reach >= 0.0 && slice.wall().nearest_box2(p) > reach * reach {
+                // (`cap` is at least half a road: `reach` is positive.)
+                let wc = if slice.wall().nearest_box2(p) > reach * reach {
                     f32::INFINITY
                 } else {
                     slice.wall_clearance(p) - half

@@ -256,8 +256,7 @@ impl Default for OffsetSpiral {
 /// (positive in the material) and its gradient (into the material).
 fn nearest(slice: &Slice, p: Point) -> (usize, f32, Point) {
     let (k, d, n) = slice.nearest_feature(p);
-    let g = n.gradient(p);
-    (k, d, if k == slice.holes().len() { -g } else { g })
+    (k, d, slice.clearance_gradient(k, &n, p))
 }
 
 /// The distance `D` from `p` to the nearest feature (positive in the material), its gradient,

@@ -32,7 +32,7 @@ use heapless::Vec;
 use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::Point;
+use crate::geometry::{primitives, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::toolpath::meander::{Fan, CHUNK};
 use crate::toolpath::PathSink;
@@ -225,15 +225,8 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     // The MCLs laid, and their boxes: each road's band reaches to the next of them.
     let mut boxes: Vec<(Point, Point), MAX_MCLS> = Vec::new();
     for &k in ends.mcls.iter() {
-        let pts = plan.points(&plan.mcls[k as usize]);
-        let mut lo = pts[0];
-        let mut hi = pts[0];
-        for q in pts.iter() {
-            lo = Point::new(lo.x.fmin(q.x), lo.y.fmin(q.y));
-            hi = Point::new(hi.x.fmax(q.x), hi.y.fmax(q.y));
-        }
         boxes
-            .push((lo, hi))
+            .push(primitives::bbox(&plan.points(&plan.mcls[k as usize])))
             .map_err(|_| crate::error::Limit::Mcls.error())?;
     }
     let mut chunks: Vec<(Point, Point), { MAX_MCLS.div_ceil(CHUNK) }> = Vec::new();

@@ -363,18 +363,10 @@ fn widened(
     // Where the ridge bends toward the road (near a corner where two features' turns meet),
     // the widened road's round edge would cross it sideways onto the other side's road:
     // widen less, or not at all.
+    // No feature is nearer `q` than its own (of equal distances, either counts).
     let in_cell = |q: Point| {
-        let mine = slice.clearance_to(own, q);
-        // A hole whose box is farther than `mine` (by more than rounding) is farther still.
-        let beyond = mine + polygon::rounding_slack(q, slice.wall().bbox());
-        (0..=holes).all(|f| {
-            f == own
-                || slice
-                    .holes()
-                    .get(f)
-                    .is_some_and(|h| polygon::bbox_distance(h.bbox(), q) > beyond)
-                || slice.clearance_to(f, q) >= mine
-        })
+        let (nearest, d, _) = slice.nearest_feature(q);
+        nearest == own || d >= slice.clearance_to(own, q)
     };
     let mut g = g;
     for _ in 0..WIDEN_TRIES {
