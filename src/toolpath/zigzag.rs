@@ -27,14 +27,14 @@ use emit::{emit_arc, emit_mcl, inner_end};
 use ends::{end_point, even_out, find, open_pieces, Ends};
 
 use super::despike::{finish, Despike};
+use core::cell::RefCell;
 use heapless::Vec;
 
 use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
-use crate::geometry::primitives::MinMax;
-use crate::geometry::{primitives, Point};
+use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
-use crate::toolpath::meander::{Fan, CHUNK};
+use crate::toolpath::meander::{fan_boxes, Fan, FanBoxes, FanChunks, Near};
 use crate::toolpath::PathSink;
 use crate::{Error, Plan, Slice};
 
@@ -223,29 +223,17 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     stats.pieces = ends.pieces(&mut parent);
 
     // The MCLs laid, and their boxes: each road's band reaches to the next of them.
-    let mut boxes: Vec<(Point, Point), MAX_MCLS> = Vec::new();
-    for &k in ends.mcls.iter() {
-        boxes
-            .push(primitives::bbox(&plan.points(&plan.mcls[k as usize])))
-            .map_err(|_| crate::error::Limit::Mcls.error())?;
-    }
-    let mut chunks: Vec<(Point, Point), { MAX_MCLS.div_ceil(CHUNK) }> = Vec::new();
-    for run in boxes.chunks(CHUNK) {
-        let (mut lo, mut hi) = run[0];
-        for &(a, b) in run {
-            lo = Point::new(lo.x.fmin(a.x), lo.y.fmin(a.y));
-            hi = Point::new(hi.x.fmax(b.x), hi.y.fmax(b.y));
-        }
-        chunks
-            .push((lo, hi))
-            .map_err(|_| crate::error::Limit::Mcls.error())?;
-    }
+    let mut boxes: FanBoxes = Vec::new();
+    let mut chunks: FanChunks = Vec::new();
+    fan_boxes(plan, &ends.mcls, &mut boxes, &mut chunks)?;
+    let near = RefCell::new(Near::new());
     let fan = Fan {
         me: NONE,
         at: 0,
         laid: &ends.mcls,
         boxes: &boxes,
         chunks: &chunks,
+        near: &near,
     };
 
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces,
