@@ -54,6 +54,17 @@ pub(super) struct Fan<'a> {
     pub near: &'a RefCell<Near>,
 }
 
+impl Fan<'_> {
+    /// [`Slice::clearance`] at `q`, from the edges [`Near`] holds where they answer it.
+    fn clearance(&self, slice: &Slice, q: Point) -> f32 {
+        self.near
+            .try_borrow_mut()
+            .ok()
+            .and_then(|mut near| near.clearance(slice, q))
+            .unwrap_or_else(|| slice.clearance(q))
+    }
+}
+
 /// How many MCLs laid in a row share one of [`Fan::chunks`]' boxes.
 const CHUNK: usize = 8;
 
@@ -221,13 +232,33 @@ fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
 
 /// One edge of [`features_within`]'s search: lowers `best` to the least `t` at which the ray
 /// from `p` along `n` comes within `off` of edge `a`-`b`.
-fn meet(p: Point, n: Point, [a, b]: [Point; 2], off: f32, best: &mut f32) {
+fn meet(p: Point, n: Point, seg: [Point; 2], off: f32, best: &mut f32) {
+    let (h, g) = products(p, n, seg);
+    meet_with(p, n, seg, off, (h, g), best);
+}
+
+/// Where the ends of `seg` lie from `p` across and along the unit vector `n`: `(h, g)`, each
+/// a pair (the first end's, the second's). Along `-n` they are the same negated, to the bit
+/// (up to the sign of a zero, which no comparison sees).
+#[inline(always)]
+fn products(p: Point, n: Point, seg: [Point; 2]) -> ((f32, f32), (f32, f32)) {
+    let (da, db) = (seg[0] - p, seg[1] - p);
+    ((n.cross(da), n.cross(db)), (n.dot(da), n.dot(db)))
+}
+
+/// [`meet`] with the ends' [`products`] given.
+#[inline(always)]
+fn meet_with(
+    p: Point,
+    n: Point,
+    [a, b]: [Point; 2],
+    off: f32,
+    ((ha, hb), (ga, gb)): ((f32, f32), (f32, f32)),
+    best: &mut f32,
+) {
     // Only a segment that reaches the strip `off` either side of the ray, ahead of `p` and
     // nearer than the best so far, can be nearer (a segment lies between its ends): most are
     // ruled out by four products.
-    let (da, db) = (a - p, b - p);
-    let (ha, hb) = (n.cross(da), n.cross(db));
-    let (ga, gb) = (n.dot(da), n.dot(db));
     if (ha > off && hb > off)
         || (ha < -off && hb < -off)
         || (ga < -off && gb < -off)
@@ -264,17 +295,23 @@ fn box_clear_of_strip(p: Point, n: Point, (lo, hi): (Point, Point), off: f32, be
 /// comes, and neighbouring roads' strokes meet without overlap however the MCLs fan, curve or
 /// end; or, where the normal meets a feature first, twice the room up to its keep-out strip
 /// (a road wide, where the arcs run). The MCL the road runs along counts too, away from `p`
-/// (a curved MCL may face itself).
-fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
-    let w = slice.settings().road_width;
-    let strip = w + 2.0 * EDGE_MARGIN;
+/// (a curved MCL may face itself). Both sides at once: along `n` and along `-n`.
+fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> [f32; 2] {
     // The segments and edges held near `p` answer most queries (those whose balls stay
     // inside their disk); the rest search every feature and every MCL laid.
-    if let Ok(mut near) = fan.near.try_borrow_mut() {
-        if let Some(best) = near.reach(slice, plan, p, n, fan, w) {
-            return 2.0 * best;
-        }
-    }
+    let near = match fan.near.try_borrow_mut() {
+        Ok(mut near) => near.reach_both(slice, plan, p, n, fan),
+        Err(_) => [None, None],
+    };
+    let back = n * -1.0;
+    [(near[0], n), (near[1], back)]
+        .map(|(near, n)| near.map_or_else(|| search(slice, plan, p, n, fan), |best| 2.0 * best))
+}
+
+/// [`reach`] along `n` alone, searching every feature and every MCL laid.
+fn search(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> f32 {
+    let w = slice.settings().road_width;
+    let strip = w + 2.0 * EDGE_MARGIN;
     // Cannot stay infinite: the wall stops every ray from inside it.
     let hit = features_within(slice, p, n, 0.0);
     let mut best = if hit.is_finite() {
@@ -323,13 +360,26 @@ fn reach_mcl(plan: &Plan, p: Point, n: Point, fan: &Fan<'_>, i: usize, w: f32, o
 /// One segment of [`reach`]'s search: lowers `best` to the radius of the first ball along
 /// `p + t n` that touches segment `seg` of an MCL laid (`own`: of the MCL the road runs along,
 /// whose segments next to `p` do not count).
+#[inline(always)]
 fn touch(p: Point, n: Point, seg: [Point; 2], own: bool, w: f32, best: &mut f32) {
+    let (h, g) = products(p, n, seg);
+    touch_with(p, n, seg, own, w, (h, g), best);
+}
+
+/// [`touch`] with the ends' [`products`] given.
+#[inline(always)]
+fn touch_with(
+    p: Point,
+    n: Point,
+    seg: [Point; 2],
+    own: bool,
+    w: f32,
+    ((ha, hb), (ga, gb)): ((f32, f32), (f32, f32)),
+    best: &mut f32,
+) {
     // The balls still in question lie ahead of `p` within `2 best` along `n` and within
     // `best` across it: a segment wholly outside that box cannot touch them.
     let b = *best;
-    let (da, db) = (seg[0] - p, seg[1] - p);
-    let (ha, hb) = (n.cross(da), n.cross(db));
-    let (ga, gb) = (n.dot(da), n.dot(db));
     if (ga < 0.0 && gb < 0.0)
         || (ga > 2.0 * b && gb > 2.0 * b)
         || (ha > b && hb > b)
@@ -346,6 +396,12 @@ fn touch(p: Point, n: Point, seg: [Point; 2], own: bool, w: f32, best: &mut f32)
         return;
     }
     *best = b.fmin(ball(p, n, seg[0], seg[1], 0.0));
+}
+
+/// The [`products`] of the other side: along `-n`.
+#[inline(always)]
+fn negated(((ha, hb), (ga, gb)): ((f32, f32), (f32, f32))) -> ((f32, f32), (f32, f32)) {
+    ((-ha, -hb), (-ga, -gb))
 }
 
 /// How many MCL segments [`Near`] holds. A disk of [`NEAR_ROADS`] road widths held at most 96 on
@@ -381,6 +437,8 @@ pub(super) struct Near {
     segs: Vec<([Point; 2], u16), NEAR_SEGMENTS>,
     /// The features' edges within the disk.
     edges: Vec<[Point; 2], NEAR_EDGES>,
+    /// Whether the centre lies in the material (clear of every feature), once asked.
+    material: Option<bool>,
 }
 
 impl Near {
@@ -392,6 +450,7 @@ impl Near {
             held: false,
             segs: Vec::new(),
             edges: Vec::new(),
+            material: None,
         }
     }
 
@@ -401,6 +460,7 @@ impl Near {
     fn fill(&mut self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, centre: Point, radius: f32) {
         self.segs.clear();
         self.edges.clear();
+        self.material = None;
         self.centre = centre;
         self.radius = radius;
         self.held = false;
@@ -416,7 +476,7 @@ impl Near {
                 }
                 for i in edges {
                     let edge = [pts[i], pts[(i + 1) % pts.len()]];
-                    if polygon::bbox_distance2(primitives::bbox(&edge), centre) > r2 {
+                    if !segment_box_within(edge, centre, r2) {
                         continue;
                     }
                     if self.edges.push(edge).is_err() {
@@ -445,7 +505,7 @@ impl Near {
                 for q in pts {
                     let seg = [prev, q];
                     prev = q;
-                    if polygon::bbox_distance2(primitives::bbox(&seg), centre) > r2 {
+                    if !segment_box_within(seg, centre, r2) {
                         continue;
                     }
                     if self.segs.push((seg, m)).is_err() {
@@ -459,50 +519,127 @@ impl Near {
         self.held = true;
     }
 
-    /// [`reach`]'s least ball radius at `p` along `n`, if the disk answers it (after filling
-    /// it around `p` if `p` lies more than half its radius from its centre); `None` where
-    /// something not held could be nearer.
-    ///
-    /// Everything not held lies farther than the radius from the centre, so farther than
-    /// `room` from `p`: the ray meets no edge not held before `room`, and no ball within
-    /// `2 t < room` of `p` touches a segment not held. So an edge met before `room` is the
-    /// feature the full search finds; where none is, the features lie at least `room` away,
-    /// and a ball smaller than their strip there is the answer.
-    #[allow(clippy::too_many_arguments)]
-    fn reach(
+    /// [`reach`]'s least ball radius at `p` along `n` and along `-n`, each if the disk answers
+    /// it (after filling it around `p` if `p` lies more than half its radius from its
+    /// centre); `None` where something not held could be nearer.
+    fn reach_both(
         &mut self,
         slice: &Slice,
         plan: &Plan,
         p: Point,
         n: Point,
         fan: &Fan<'_>,
-        w: f32,
-    ) -> Option<f32> {
-        if !self.held || p.dist(self.centre) > 0.5 * self.radius {
-            self.fill(slice, plan, fan, p, NEAR_ROADS * w);
+    ) -> [Option<f32>; 2] {
+        let radius = NEAR_ROADS * slice.settings().road_width;
+        let mut fresh = false;
+        if !self.held || p.dist(self.centre) >= 0.6 * radius {
+            self.fill(slice, plan, fan, p, radius);
+            fresh = true;
         }
+        let mut got = self.answer(slice, p, n, fan);
+        if !fresh && got.iter().any(Option::is_none) {
+            self.fill(slice, plan, fan, p, radius);
+            got = self.answer(slice, p, n, fan);
+        }
+        got
+    }
+
+    /// [`reach_both`](Self::reach_both) from the disk as it is. The ends' products are
+    /// measured once for both sides.
+    ///
+    /// Everything not held lies farther than the radius from the centre, so farther than
+    /// `room` from `p`: the ray meets no edge not held before `room`, and no ball within
+    /// `2 t < room` of `p` touches a segment not held. So an edge met before `room` is the
+    /// feature the full search finds; where none is, the features lie at least `room` away,
+    /// and a ball smaller than their strip there is the answer.
+    fn answer(&self, slice: &Slice, p: Point, n: Point, fan: &Fan<'_>) -> [Option<f32>; 2] {
         if !self.held {
-            return None;
+            return [None, None];
         }
+        let w = slice.settings().road_width;
         // A thousandth of the radius and the coordinates' rounding spare.
         let slack = 1e-3 * self.radius + polygon::rounding_slack(p, (self.centre, self.centre));
         let room = self.radius - p.dist(self.centre) - slack;
+        if room <= 0.0 {
+            return [None, None];
+        }
         let strip = w + 2.0 * EDGE_MARGIN;
-        let mut hit = f32::INFINITY;
+        let back = n * -1.0;
+        let mut hit = [f32::INFINITY; 2];
         for &edge in self.edges.iter() {
-            meet(p, n, edge, 0.0, &mut hit);
+            let hg = products(p, n, edge);
+            meet_with(p, n, edge, 0.0, hg, &mut hit[0]);
+            meet_with(p, back, edge, 0.0, negated(hg), &mut hit[1]);
         }
         // As the full search starts, where the feature met is held; else from no bound.
-        let mut best = if hit < room {
-            (hit - strip).fmax(0.0)
-        } else {
-            f32::INFINITY
-        };
+        let mut best = hit.map(|hit| {
+            if hit < room {
+                (hit - strip).fmax(0.0)
+            } else {
+                f32::INFINITY
+            }
+        });
         for &(seg, m) in self.segs.iter() {
-            touch(p, n, seg, m == fan.me, w, &mut best);
+            let hg = products(p, n, seg);
+            let own = m == fan.me;
+            touch_with(p, n, seg, own, w, hg, &mut best[0]);
+            touch_with(p, back, seg, own, w, negated(hg), &mut best[1]);
         }
-        (2.0 * best < room && (hit < room || best < room - strip)).then_some(best)
+        [0, 1].map(|k| {
+            (2.0 * best[k] < room && (hit[k] < room || best[k] < room - strip)).then_some(best[k])
+        })
     }
+}
+
+impl Near {
+    /// [`Slice::clearance`] at `q`, if the disk answers it: where `q` lies in the material and
+    /// its nearest edge held is nearer than anything not held can be. `q` is in the material
+    /// if the centre is (asked of the slice once per disk) and the segment from the centre to
+    /// `q`, which lies in the disk, meets no edge held (so none at all). Its clearance is then
+    /// the least distance to an edge, measured as [`Feature::nearest`] measures it (the same
+    /// closest point, the square root of the least squared distance), so the same bits.
+    ///
+    /// [`Feature::nearest`]: crate::Feature::nearest
+    fn clearance(&mut self, slice: &Slice, q: Point) -> Option<f32> {
+        if !self.held {
+            return None;
+        }
+        let slack = 1e-3 * self.radius + polygon::rounding_slack(q, (self.centre, self.centre));
+        let room = self.radius - q.dist(self.centre) - slack;
+        let c = self.centre;
+        if room <= 0.0
+            || self
+                .edges
+                .iter()
+                .any(|&[a, b]| primitives::segments_meet(c, q, a, b))
+            || !*self
+                .material
+                .get_or_insert_with(|| slice.clearance(c) > 0.0)
+        {
+            return None;
+        }
+        let d2 = self.edges.iter().fold(f32::INFINITY, |m, &[a, b]| {
+            let d2 = (primitives::closest_on_segment(a, b, q).0 - q).norm2();
+            if d2 < m {
+                d2
+            } else {
+                m
+            }
+        });
+        let d = hollowpath_fpu::sqrtf(d2);
+        (d < room).then_some(d)
+    }
+}
+
+/// Whether the box around segment `seg` comes within `sqrt(r2)` of `c` (a segment whose box
+/// does not lies wholly farther).
+#[inline(always)]
+fn segment_box_within([a, b]: [Point; 2], c: Point, r2: f32) -> bool {
+    let (lo, hi) = (
+        Point::new(a.x.fmin(b.x), a.y.fmin(b.y)),
+        Point::new(a.x.fmax(b.x), a.y.fmax(b.y)),
+    );
+    polygon::bbox_distance2((lo, hi), c) <= r2
 }
 
 /// The band the road along an MCL owns at `p` (direction `dir`): the unit normal to the left of
@@ -522,8 +659,7 @@ pub(super) fn band_at(
     }
     // Unit normal to the left of the MCL.
     let left_n = Point::new(-dir.y / len, dir.x / len);
-    let left = reach(slice, plan, p, left_n, fan);
-    let right = reach(slice, plan, p, left_n * -1.0, fan);
+    let [left, right] = reach(slice, plan, p, left_n, fan);
     Some((left_n, left, right))
 }
 
@@ -662,7 +798,7 @@ fn stroke(
         let gap = state
             .tips
             .map_or(ws, |last| (last[k] - tips[k]).dot(along_mcl).abs());
-        let cap = 2.0 * (slice.clearance(tips[k]) - settings.road_width - 2.0 * EDGE_MARGIN);
+        let cap = 2.0 * (fan.clearance(slice, tips[k]) - settings.road_width - 2.0 * EDGE_MARGIN);
         gap.fmin(settings.max_width).fmin(cap).fmax(ws)
     };
     let widths = [tip_width(0), tip_width(1)];
@@ -715,26 +851,32 @@ fn stroke(
 /// MCL's end vertices (`end`: on keep-out curves, where the arcs to the next MCL leave) stay
 /// where they are and are at most a road width wide, so nothing spills. `band` is the band
 /// the road owns at `p` ([`band_at`]).
-pub(super) fn road_at(slice: &Slice, p: Point, end: bool, band: Option<Band>) -> (Point, f32) {
+pub(super) fn road_at(
+    slice: &Slice,
+    fan: &Fan<'_>,
+    p: Point,
+    end: bool,
+    band: Option<Band>,
+) -> (Point, f32) {
     let settings = slice.settings();
     let w = settings.road_width;
     let Some((left_n, left, right)) = band else {
         return (p, w);
     };
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
-    let cap = |q: Point| 2.0 * (slice.clearance(q) - EDGE_MARGIN);
+    let cap = |q: Point| 2.0 * (fan.clearance(slice, q) - EDGE_MARGIN);
     if end {
         return (p, width.fmin(w - 2.0 * EDGE_MARGIN));
     }
     let shifted = p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width);
     // The shift toward the wider gap may bring the road nearer a feature than half the
     // narrowest road: then it stays on its MCL.
-    let at = if cap(shifted) >= settings.min_width {
-        shifted
+    let shifted_cap = cap(shifted);
+    if shifted_cap >= settings.min_width {
+        (shifted, width.fmin(shifted_cap))
     } else {
-        p
-    };
-    (at, width.fmin(cap(at)))
+        (p, width.fmin(cap(p)))
+    }
 }
 
 #[cfg(test)]
@@ -824,12 +966,14 @@ mod tests {
     }
 
     /// Wherever the near disk answers a band query, it answers as the search over every
-    /// feature and every MCL, to the bit; and it answers most of them. Queries along every MCL
-    /// (at its points and between them, both normals), in walking order as the zigzag asks.
+    /// feature and every MCL, to the bit, and a clearance as the slice does; and it answers
+    /// most of them. Queries along every MCL (at its points and between them, both normals,
+    /// clearances up to two roads across), in walking order as the zigzag asks.
     #[test]
     fn the_near_disk_answers_as_the_full_search() {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let (mut slices, mut asked, mut answered) = (0, 0usize, 0usize);
+        let mut cleared = (0usize, 0usize);
         let mut planner = Box::new(Planner::new());
         let (mut boxes, mut chunks) = (Box::new(FanBoxes::new()), Box::new(FanChunks::new()));
         while slices < 6 {
@@ -862,14 +1006,23 @@ mod tests {
                     }
                     let left = Point::new(-dir.y / len, dir.x / len);
                     for p in [seg[0], seg[0].lerp(seg[1], 0.5)] {
-                        for n in [left, left * -1.0] {
-                            // With the disk borrowed, `reach` searches everything.
-                            let full = {
-                                let _held = near.borrow_mut();
-                                reach(&slice, plan, p, n, &fan)
-                            };
+                        let got = near.borrow_mut().reach_both(&slice, plan, p, left, &fan);
+                        // The clearance across the MCL, where the road and its strokes ask.
+                        for k in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
+                            let q = p + left * (k * w);
+                            cleared.0 += 1;
+                            if let Some(d) = near.borrow_mut().clearance(&slice, q) {
+                                cleared.1 += 1;
+                                assert_eq!(
+                                    d.to_bits(),
+                                    slice.clearance(q).to_bits(),
+                                    "slice {slices}: clearance at {q:?}"
+                                );
+                            }
+                        }
+                        for (got, n) in got.into_iter().zip([left, left * -1.0]) {
+                            let full = search(&slice, plan, p, n, &fan);
                             asked += 1;
-                            let got = near.borrow_mut().reach(&slice, plan, p, n, &fan, w);
                             if let Some(best) = got {
                                 answered += 1;
                                 assert_eq!(
@@ -887,6 +1040,12 @@ mod tests {
         assert!(
             answered * 4 >= asked * 3,
             "the disk answered {answered} of {asked} queries"
+        );
+        assert!(
+            cleared.1 * 5 >= cleared.0,
+            "the disk answered {} of {} clearances",
+            cleared.1,
+            cleared.0
         );
     }
 }

@@ -88,7 +88,7 @@ pub(super) fn emit_mcl(
                 continue;
             }
             strokes.in_meander = false;
-            let (mut at, mut width) = road_at(slice, p, is_end, band);
+            let (mut at, mut width) = road_at(slice, fan, p, is_end, band);
             // An end into a splice's inner arc lies on its line, a quarter road off the curve.
             let shifted = match step {
                 0 if k == 0 => spliced[0],
