@@ -34,7 +34,8 @@ use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
 use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
-use crate::toolpath::meander::{fan_boxes, Fan, FanBoxes, FanChunks, Near};
+use crate::toolpath::meander::near::Near;
+use crate::toolpath::meander::{fan_boxes, Fan, FanBoxes, FanChunks};
 use crate::toolpath::PathSink;
 use crate::{Error, Plan, Slice};
 
