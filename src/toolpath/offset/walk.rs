@@ -262,6 +262,19 @@ impl OffsetSpiral {
     }
 }
 
+/// Whether feature `f` (not the nearest to the ray's start, which lies in the material at
+/// distance `d` from the features) is at least `d + t` from the ray's point `q` at `t` by the
+/// boxes of its chunks alone, so that [`widened`]'s gap there cannot fall below zero. Where
+/// the ray enters the feature it crosses its boundary within `t` of `q`, so a point of the ray
+/// inside the feature has a chunk's box nearer than `d + t`; elsewhere the boxes hold every
+/// edge. A lower bound with the rounding slack: it skips only features the exact test skips,
+/// without their exact distance (the nearest edge and, for the wall, the inside test).
+fn clear_beyond(slice: &Slice, f: usize, d: f32, q: Point, t: f32) -> bool {
+    let feature = slice.holes().get(f).unwrap_or(slice.wall());
+    let need = d + t + polygon::rounding_slack(q, feature.bbox());
+    d >= 0.0 && feature.nearest_box2(q) >= need * need
+}
+
 /// A turn's point `p` widened into the gap it leaves before a ridge, and the road width there;
 /// `own`, `d` and `n` are its nearest feature, the distance to it and the gradient
 /// ([`nearest`]).
@@ -320,7 +333,10 @@ fn widened(
             .holes()
             .get(f)
             .is_some_and(|h| f != own && polygon::bbox_distance(h.bbox(), p) >= d + 2.0 * reach);
-        if far || gap(f, ridge) >= -tol {
+        if far || (f != own && clear_beyond(slice, f, d, p + n * ridge, ridge)) {
+            continue;
+        }
+        if gap(f, ridge) >= -tol {
             continue;
         }
         let (mut lo, mut hi) = (0.0f32, ridge);
