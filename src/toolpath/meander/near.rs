@@ -18,26 +18,33 @@ const NEAR_SEGMENTS: usize = 160;
 /// ones, whose contours keep a vertex every few hundredths of a millimetre).
 const NEAR_EDGES: usize = 96;
 /// The radius of [`Near`]'s disk, in road widths. It changes no answer, only how many queries
-/// it answers and how many segments each measures: a query is answered where its balls stay
-/// in the disk (at worst `2 t` within half the radius, as the disk is filled again once the
-/// road walks farther from its centre), most bands are one to two roads wide, and a wider
-/// disk holds more segments. 2.5 to 3 took the fewest instructions on four_holes (2 to 6
-/// measured), answering 95 % of the queries.
+/// the disk answers and how many segments each measures: a query is answered where its ray
+/// hit and its balls (`2 t` from `p`) stay inside the room the disk leaves around `p`, most
+/// bands are one to two roads wide, and a wider disk holds more segments. 3 roads, filled
+/// again at [`NEAR_REFILL`], took the fewest instructions on four_holes (QEMU) among radii of
+/// 2 to 6 roads and refill distances of 0.4 to 1.0 of the radius.
 const NEAR_ROADS: f32 = 3.0;
-/// [`Near::segs`]' MCL indices are `u16` (plan indices).
-const _: () = assert!(crate::config::MAX_MCLS <= u16::MAX as usize);
+/// How far from its centre, as a share of its radius, a query has the disk filled again
+/// around it before it is asked.
+const NEAR_REFILL: f32 = 0.6;
 
-/// The segments of the MCLs laid within a disk, for the [`reach`](super::reach)(super::reach) queries that follow one
-/// another along a road: a query whose balls stay inside the disk needs no other segment (a
-/// ball of radius `t` from `p` reaches no point farther than `2 t` from `p`), so it measures
-/// only these instead of searching every MCL laid, and finds the same least ball. The disk
-/// moves (is filled again around the query) once a query lies more than half its radius from
-/// its centre.
+/// The segments of the MCLs laid and the features' edges within a disk, for the
+/// [`reach`](super::reach) queries that follow one another along a road, and for the
+/// clearances the road asks on the way: a query whose answer lies inside the room the disk
+/// leaves around it needs nothing else (everything not held lies farther), so it measures only
+/// these instead of searching every feature and MCL laid, and finds what the full search
+/// finds. (Both searches skip segments by tests whose rounding differs from the measure's, so
+/// two candidates within rounding of each other could in principle win in one order and not
+/// in the other; no digest of the reference slices and no line of the 200 random slices
+/// differs.) The disk moves (is filled again around the query) once a query lies
+/// [`NEAR_REFILL`] of its radius from its centre, or when it answers a query only in part.
 pub(in crate::toolpath) struct Near {
     centre: Point,
     radius: f32,
-    /// Whether `segs` holds every segment within the disk (false before the first fill, and
-    /// after a fill that found more than [`NEAR_SEGMENTS`]).
+    /// Whether the disk was filled around `centre`.
+    filled: bool,
+    /// Whether `segs` and `edges` hold every segment and edge within the disk (false before the
+    /// first fill, and after a fill that found more than [`NEAR_SEGMENTS`] or [`NEAR_EDGES`]).
     held: bool,
     /// Each segment's ends and the plan index of its MCL.
     segs: Vec<([Point; 2], u16), NEAR_SEGMENTS>,
@@ -53,6 +60,7 @@ impl Near {
         Near {
             centre: Point::new(0.0, 0.0),
             radius: 0.0,
+            filled: false,
             held: false,
             segs: Vec::new(),
             edges: Vec::new(),
@@ -69,6 +77,7 @@ impl Near {
         self.material = None;
         self.centre = centre;
         self.radius = radius;
+        self.filled = true;
         self.held = false;
         let r2 = radius * radius;
         for f in slice.holes().iter().chain(core::iter::once(slice.wall())) {
@@ -125,9 +134,11 @@ impl Near {
         self.held = true;
     }
 
-    /// [`reach`](super::reach)(super::reach)'s least ball radius at `p` along `n` and along `-n`, each if the disk answers
-    /// it (after filling it around `p` if `p` lies more than half its radius from its
-    /// centre); `None` where something not held could be nearer.
+    /// [`reach`](super::reach)'s least ball radius at `p` along `n` and along `-n`, each if
+    /// the disk answers it; `None` where something not held could be nearer. The disk is
+    /// filled again around `p` first if `p` lies [`NEAR_REFILL`] of its radius from its
+    /// centre, and after a partial answer if `p` lies more than a quarter of it away (nearer,
+    /// the room would hardly grow). A disk too full to hold waits until the road walks away.
     pub(super) fn reach_both(
         &mut self,
         slice: &Slice,
@@ -137,13 +148,13 @@ impl Near {
         fan: &Fan<'_>,
     ) -> [Option<f32>; 2] {
         let radius = NEAR_ROADS * slice.settings().road_width;
-        let mut fresh = false;
-        if !self.held || p.dist(self.centre) >= 0.6 * radius {
+        let off = p.dist(self.centre);
+        let fresh = !self.filled || off >= NEAR_REFILL * radius;
+        if fresh {
             self.fill(slice, plan, fan, p, radius);
-            fresh = true;
         }
         let mut got = self.answer(slice, p, n, fan);
-        if !fresh && got.iter().any(Option::is_none) {
+        if !fresh && self.held && off > 0.25 * radius && got.iter().any(Option::is_none) {
             self.fill(slice, plan, fan, p, radius);
             got = self.answer(slice, p, n, fan);
         }
@@ -379,8 +390,8 @@ mod tests {
                     for p in [seg[0], seg[0].lerp(seg[1], 0.5)] {
                         let got = near.borrow_mut().reach_both(&slice, plan, p, left, &fan);
                         // The clearance across the MCL, where the road and its strokes ask.
-                        for k in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
-                            let q = p + left * (k * w);
+                        for across in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
+                            let q = p + left * (across * w);
                             cleared.0 += 1;
                             if let Some(d) = near.borrow_mut().clearance(&slice, q) {
                                 cleared.1 += 1;

@@ -98,7 +98,7 @@ pub(super) fn within(p: Point, n: Point, a: Point, b: Point, off: f32) -> f32 {
     best
 }
 
-/// The features' edges a ray from `p` may meet within `limit`, each with the least `t` at
+/// The features' edges a ray from `p` may meet, each with the least `t` at
 /// which the ray comes within `off` of it ([`within`]): the least over all features.
 pub(super) fn features_within(slice: &Slice, p: Point, n: Point, off: f32) -> f32 {
     let mut best = f32::INFINITY;
@@ -185,7 +185,7 @@ pub(super) fn box_clear_of_strip(
     h.0 > off + slack || h.1 < -off - slack || g.1 < -off - slack || g.0 > best + off + slack
 }
 
-/// One segment of [`reach`](super::reach)(super::reach)'s search: lowers `best` to the radius of the first ball along
+/// One segment of [`reach`](super::reach)'s search: lowers `best` to the radius of the first ball along
 /// `p + t n` that touches segment `seg` of an MCL laid (`own`: of the MCL the road runs along,
 /// whose segments next to `p` do not count).
 #[inline(always)]
