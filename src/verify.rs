@@ -4,7 +4,7 @@
 //! so tests, the host tool and the firmware can check a plan before anything is printed.
 
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polyline, primitives, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{FeatureId, Plan, Slice, Target};
 
 /// A property of a plan that does not hold.
@@ -76,6 +76,12 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
     let half = 0.5 * settings.road_width;
     let hole_d = |i: usize, p: Point| slice.holes()[i].signed_distance(p);
     let mut uses = [0u8; crate::config::MAX_HALVES];
+    // The printable region's bar (`Slice::is_printable`: `fits` at the road width), and the
+    // rounding a clearance may carry: every point of an MCL lies in the wall's box, and twice
+    // the slack at its corner bounds the slack at any of them.
+    let bar = settings.road_width * 0.5 - ON_CURVE_TOL;
+    let wall_box = slice.wall().bbox();
+    let slack = 2.0 * polygon::rounding_slack(wall_box.0, wall_box);
     for (k, m) in plan.mcls.iter().enumerate() {
         let id = k as u16;
         uses[m.first as usize] += 1;
@@ -113,12 +119,8 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
         }
         // Every point, and points along every segment, in the printable region.
         for w in pts.windows(2) {
-            let n = libm::ceilf(w[0].dist(w[1]) / (0.25 * half)).fmax(1.0) as usize;
-            for t in 0..=n {
-                let p = w[0].lerp(w[1], t as f32 / n as f32);
-                if !slice.is_printable(p, ON_CURVE_TOL) {
-                    return Err(Violation::OutsideRegion { mcl: id, at: p });
-                }
+            if let Some(at) = first_outside(slice, w[0], w[1], bar, slack) {
+                return Err(Violation::OutsideRegion { mcl: id, at });
             }
             // The holes in order, then the wall.
             if let Some(f) = slice.features_crossed(w[0], w[1]).next() {
@@ -140,6 +142,18 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
             return Err(Violation::Dangling { half: h as u16 });
         }
     }
+    // An MCL's box from its halves' points, without copying them: the same bits as the box
+    // of its joined points (the joint, which both halves hold, is one of them).
+    let mcl_box = |m: &crate::Mcl| {
+        let (lo, hi) = primitives::bbox(plan.halves.points(m.first as usize));
+        m.second.map_or((lo, hi), |s| {
+            let (slo, shi) = primitives::bbox(plan.halves.points(s as usize));
+            (
+                Point::new(lo.x.fmin(slo.x), lo.y.fmin(slo.y)),
+                Point::new(hi.x.fmax(shi.x), hi.y.fmax(shi.y)),
+            )
+        })
+    };
     for (a, ma) in plan.mcls.iter().enumerate() {
         let pa = plan.points(ma);
         let ba = primitives::bbox(&pa);
@@ -150,9 +164,8 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     b: b as u16,
                 });
             }
-            let pb = plan.points(mb);
-            if polyline::boxes_overlap(ba, primitives::bbox(&pb), 1e-4)
-                && polyline::polylines_cross(&pa, &pb)
+            if polyline::boxes_overlap(ba, mcl_box(mb), 1e-4)
+                && polyline::polylines_cross(&pa, &plan.points(mb))
             {
                 return Err(Violation::Crossing {
                     a: a as u16,
@@ -162,4 +175,105 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
         }
     }
     Ok(())
+}
+
+/// The first of the samples along `a`-`b` (the ends and points a quarter of a half road apart)
+/// that is not in the printable region ([`Slice::is_printable`] with [`ON_CURVE_TOL`]: a
+/// clearance of at least `bar`), if any. The clearance changes by no more than the way gone,
+/// so the samples within a measured clearance's surplus over the bar (less `slack`, the
+/// rounding a clearance may carry) are printable too and are not measured: the same answer
+/// as measuring every sample.
+fn first_outside(slice: &Slice, a: Point, b: Point, bar: f32, slack: f32) -> Option<Point> {
+    let half = 0.5 * slice.settings().road_width;
+    let n = libm::ceilf(a.dist(b) / (0.25 * half)).fmax(1.0) as usize;
+    // A sample's distance from the next, a little over (rounding of `lerp`).
+    let step = a.dist(b) / n as f32 * 1.001;
+    let mut t = 0;
+    while t <= n {
+        let p = a.lerp(b, t as f32 / n as f32);
+        let clearance = slice.clearance(p);
+        // As `Slice::fits` compares (a NaN clearance is not printable).
+        let printable = clearance >= bar;
+        if !printable {
+            return Some(p);
+        }
+        let surplus = clearance - bar - slack;
+        t += 1;
+        if surplus > step {
+            // At most `n`: the loop ends there anyway.
+            t += libm::floorf(surplus / step).fmin(n as f32) as usize;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Feature, Settings};
+
+    /// Along random segments of a slice with three holes, some wholly in the material and some
+    /// across features, the samples skipped by their clearance change nothing: the first
+    /// sample outside the printable region is the one that measuring every sample finds.
+    #[test]
+    fn skipping_by_clearance_finds_the_first_sample_outside() {
+        let circle = |c: Point, r: f32, n: usize| -> std::vec::Vec<Point> {
+            (0..n)
+                .map(|i| {
+                    let t = i as f32 / n as f32 * core::f32::consts::TAU;
+                    Point::new(c.x + r * libm::cosf(t), c.y + r * libm::sinf(t))
+                })
+                .collect()
+        };
+        let wall = Feature::new(
+            FeatureId::Wall,
+            &circle(Point::new(0.0, 0.0), 20.0, 96),
+            [1.0, 0.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let holes: std::vec::Vec<Feature> = [(-8.0, 0.0, 3.0), (7.0, 5.0, 2.0), (2.0, -9.0, 4.0)]
+            .iter()
+            .enumerate()
+            .map(|(k, &(x, y, r))| {
+                Feature::new(
+                    FeatureId::Hole(k as u8),
+                    &circle(Point::new(x, y), r, 48),
+                    [0.0, 1.0, 0.0, 0.0],
+                )
+                .unwrap()
+            })
+            .collect();
+        let slice = Slice::new(wall, &holes, Settings::for_road_width(0.4)).unwrap();
+        let bar = slice.settings().road_width * 0.5 - ON_CURVE_TOL;
+        let wall_box = slice.wall().bbox();
+        let slack = 2.0 * polygon::rounding_slack(wall_box.0, wall_box);
+        let half = 0.5 * slice.settings().road_width;
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for _ in 0..2000 {
+            let a = Point::new(unit() * 36.0 - 18.0, unit() * 36.0 - 18.0);
+            let b = a + Point::new(unit() * 8.0 - 4.0, unit() * 8.0 - 4.0);
+            let n = libm::ceilf(a.dist(b) / (0.25 * half)).fmax(1.0) as usize;
+            let every = (0..=n)
+                .map(|t| a.lerp(b, t as f32 / n as f32))
+                .find(|&p| !slice.is_printable(p, ON_CURVE_TOL));
+            let skipping = first_outside(&slice, a, b, bar, slack);
+            assert_eq!(skipping, every, "{a:?} -> {b:?}");
+            if every.is_some() {
+                outside += 1;
+            } else {
+                inside += 1;
+            }
+        }
+        assert!(
+            inside > 200 && outside > 200,
+            "{inside} in the material, {outside} not"
+        );
+    }
 }
