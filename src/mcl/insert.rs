@@ -259,12 +259,39 @@ fn trace(
                 && f.signed_distance(x) <= d
         })
     };
+    // Far enough from hole `i` (by a lower bound `lo` of its distance), its nearest point is
+    // weighted by nothing (`direction_at`'s weight is 1): the field alone steers, and the
+    // point is not measured.
+    let far = |lo: f32| lo >= half + h * (1.0 + 1e-3);
+    let steered = |x: Point, lo: f32| {
+        if far(lo) {
+            field
+                .gradient(x, i)
+                .filter(|g| g.norm2() > 1e-12)
+                .map(|g| (Point::new(0.0, 0.0) + g.normalized()).normalized())
+        } else {
+            None
+        }
+    };
+    let hole_box = slice.holes()[i].bbox();
+    // Whether another hole's box lies within `d` of `x` (plus rounding): where none does, no
+    // other hole is as near `x` as `d` (`other_within` would measure none).
+    let other_box_within = |x: Point, d: f32| {
+        slice.holes().iter().enumerate().any(|(c, f)| {
+            let far = d + polygon::rounding_slack(x, f.bbox());
+            c != i && polygon::bbox_distance2(f.bbox(), x) <= far * far
+        })
+    };
     out.clear();
     out.push(start).ok()?;
     let mut p = start;
-    // Hole `i`'s nearest point to `p`: measured once for the step that ends at `p` and the
-    // one that starts there.
-    let mut near_p = slice.holes()[i].nearest(p);
+    // Hole `i`'s nearest point to `p`, where measured (once for the step that ends at `p` and
+    // the one that starts there), and bounds of its distance: the distance changes by no more
+    // than a step's length over a step, so where the field alone steers, no other hole is
+    // near and the lower bound keeps the hole beyond half a road, `q` is not measured and the
+    // bounds widen by the step (and rounding) instead.
+    let mut near_p = Some(slice.holes()[i].nearest(p));
+    let (mut lo_p, mut hi_p) = near_p.map_or((0.0, 0.0), |n| (n.distance, n.distance));
     // A lower bound of the wall's clearance at `p`: the distance to the wall changes by no
     // more than a step's length over a step, so the wall is measured again only where the
     // bound, less rounding, no longer keeps it farther than half a road. Each step takes a
@@ -272,8 +299,13 @@ fn trace(
     // carried over many steps stays below the clearance.
     let mut wall_p = slice.wall_clearance(p);
     while out.len() < TRACE_POINTS - 1 {
-        let d1 = direction_at(p, near_p);
-        let d2 = direction(p + d1 * (0.5 * step));
+        let d1 = steered(p, lo_p).unwrap_or_else(|| match near_p {
+            Some(near) => direction_at(p, near),
+            None => direction(p),
+        });
+        let mid = p + d1 * (0.5 * step);
+        let lo_mid = lo_p - mid.dist(p) - polygon::rounding_slack(mid, hole_box);
+        let d2 = steered(mid, lo_mid).unwrap_or_else(|| direction(mid));
         let q = p + d2 * step;
         let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
         let wall_q = if bound > half + polygon::rounding_slack(q, slice.wall().bbox()) {
@@ -286,20 +318,33 @@ fn trace(
             out.push(e).ok()?;
             return Some(HalfEnd::Wall);
         }
-        let near_q = slice.holes()[i].nearest(q);
-        let dq = near_q.distance;
-        if other_within(q, dq) {
-            let e = bisect(p, q, |x| others(x).1 - own(x));
-            let (j, _) = others(e);
-            out.push(e).ok()?;
-            return Some(HalfEnd::Bisector(j as u8));
-        }
-        if dq < half - 1e-3 {
-            return None;
-        }
+        let moved = q.dist(p) + polygon::rounding_slack(q, hole_box);
+        let (lo_q, hi_q) = (lo_p - moved, hi_p + moved);
+        let near_q = if far(lo_q) && !other_box_within(q, hi_q) {
+            None
+        } else {
+            Some(slice.holes()[i].nearest(q))
+        };
+        let (lo_q, hi_q) = match near_q {
+            Some(near) => {
+                let dq = near.distance;
+                if other_within(q, dq) {
+                    let e = bisect(p, q, |x| others(x).1 - own(x));
+                    let (j, _) = others(e);
+                    out.push(e).ok()?;
+                    return Some(HalfEnd::Bisector(j as u8));
+                }
+                if dq < half - 1e-3 {
+                    return None;
+                }
+                (dq, dq)
+            }
+            None => (lo_q, hi_q),
+        };
         out.push(q).ok()?;
         p = q;
         near_p = near_q;
+        (lo_p, hi_p) = (lo_q, hi_q);
         wall_p = wall_q;
     }
     None
