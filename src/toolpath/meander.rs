@@ -66,6 +66,7 @@ impl Fan<'_> {
         self.near
             .try_borrow_mut()
             .ok()
+            .filter(|_| !near::unasked())
             .and_then(|mut near| near.clearance(slice, q))
             .unwrap_or_else(|| slice.clearance(q))
     }
@@ -134,8 +135,8 @@ fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> [f32;
     // The segments and edges held near `p` answer most queries (those whose balls stay
     // inside their disk); the rest search every feature and every MCL laid.
     let near = match fan.near.try_borrow_mut() {
-        Ok(mut near) => near.reach_both(slice, plan, p, n, fan),
-        Err(_) => [None, None],
+        Ok(mut near) if !near::unasked() => near.reach_both(slice, plan, p, n, fan),
+        _ => [None, None],
     };
     let back = n * -1.0;
     [(near[0], n), (near[1], back)]

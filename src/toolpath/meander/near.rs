@@ -28,6 +28,25 @@ const NEAR_ROADS: f32 = 3.0;
 /// around it before it is asked.
 const NEAR_REFILL: f32 = 0.6;
 
+#[cfg(test)]
+std::thread_local! {
+    /// Test builds only: whether this thread's queries leave the disk unasked (so a test can
+    /// lay the same layer with and without it).
+    static UNASKED: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
+}
+
+/// Whether the disk is left unasked: never, outside tests.
+#[cfg(not(test))]
+pub(super) const fn unasked() -> bool {
+    false
+}
+
+/// Whether this thread's queries leave the disk unasked (test builds).
+#[cfg(test)]
+pub(super) fn unasked() -> bool {
+    UNASKED.with(|u| u.get())
+}
+
 /// The segments of the MCLs laid and the features' edges within a disk, for the
 /// [`reach`](super::reach) queries that follow one another along a road, and for the
 /// clearances the road asks on the way: a query whose answer lies inside the room the disk
@@ -429,5 +448,35 @@ mod tests {
             cleared.1,
             cleared.0
         );
+    }
+    /// The zigzag layer of random slices is the same with and without the disk, to the bit:
+    /// every band and clearance the roads and the meanders' strokes ask, over the MCLs the
+    /// zigzag lays (its parity subset, in its order).
+    #[test]
+    fn the_zigzag_is_the_same_without_the_disk() {
+        use crate::toolpath::zigzag::zigzag;
+        use crate::toolpath::DigestSink;
+        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+        let mut planner = Box::new(Planner::new());
+        let mut slices = 0;
+        while slices < 6 {
+            let Some(slice) = random_slice(&mut rng) else {
+                continue;
+            };
+            let Ok(plan) = planner.plan(&slice) else {
+                continue;
+            };
+            slices += 1;
+            let layer = |unasked: bool| {
+                UNASKED.with(|u| u.set(unasked));
+                let mut sink = DigestSink::new();
+                let stats = zigzag(&slice, plan, &mut sink).map(|s| (s, sink.digest()));
+                UNASKED.with(|u| u.set(false));
+                stats
+            };
+            let (with, without) = (layer(false), layer(true));
+            assert!(with.is_ok(), "slice {slices}: {with:?}");
+            assert_eq!(with, without, "slice {slices}");
+        }
     }
 }
