@@ -366,18 +366,13 @@ mod tests {
         Slice::new(wall, &holes, Settings::for_road_width(rng.range(0.3, 0.6))).ok()
     }
 
-    /// Wherever the near disk answers a band query, it answers as the search over every
-    /// feature and every MCL, to the bit, and a clearance as the slice does; and it answers
-    /// most of them. Queries along every MCL (at its points and between them, both normals,
-    /// clearances up to two roads across), in walking order as the zigzag asks.
-    #[test]
-    fn the_near_disk_answers_as_the_full_search() {
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-        let (mut slices, mut asked, mut answered) = (0, 0usize, 0usize);
-        let mut cleared = (0usize, 0usize);
+    /// Calls `each` with the number (from 1), the slice and the plan of the first `count`
+    /// random slices from `seed` that plan.
+    fn planned_slices(seed: u64, count: usize, mut each: impl FnMut(usize, &Slice, &crate::Plan)) {
+        let mut rng = Rng(seed);
         let mut planner = Box::new(Planner::new());
-        let (mut boxes, mut chunks) = (Box::new(FanBoxes::new()), Box::new(FanChunks::new()));
-        while slices < 6 {
+        let mut slices = 0;
+        while slices < count {
             let Some(slice) = random_slice(&mut rng) else {
                 continue;
             };
@@ -385,6 +380,20 @@ mod tests {
                 continue;
             };
             slices += 1;
+            each(slices, &slice, plan);
+        }
+    }
+
+    /// Wherever the near disk answers a band query, it answers as the search over every
+    /// feature and every MCL, to the bit, and a clearance as the slice does; and it answers
+    /// most of them. Queries along every MCL (at its points and between them, both normals,
+    /// clearances up to two roads across), in walking order as the zigzag asks.
+    #[test]
+    fn the_near_disk_answers_as_the_full_search() {
+        let (mut asked, mut answered) = (0usize, 0usize);
+        let mut cleared = (0usize, 0usize);
+        let (mut boxes, mut chunks) = (Box::new(FanBoxes::new()), Box::new(FanChunks::new()));
+        planned_slices(0x9e37_79b9_7f4a_7c15, 6, |slices, slice, plan| {
             let laid: StdVec<u16> = (0..plan.mcls.len() as u16).collect();
             fan_boxes(plan, &laid, &mut boxes, &mut chunks).unwrap();
             let near = RefCell::new(Near::new());
@@ -407,12 +416,12 @@ mod tests {
                     }
                     let left = Point::new(-dir.y / len, dir.x / len);
                     for p in [seg[0], seg[0].lerp(seg[1], 0.5)] {
-                        let got = near.borrow_mut().reach_both(&slice, plan, p, left, &fan);
+                        let got = near.borrow_mut().reach_both(slice, plan, p, left, &fan);
                         // The clearance across the MCL, where the road and its strokes ask.
                         for across in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
                             let q = p + left * (across * w);
                             cleared.0 += 1;
-                            if let Some(d) = near.borrow_mut().clearance(&slice, q) {
+                            if let Some(d) = near.borrow_mut().clearance(slice, q) {
                                 cleared.1 += 1;
                                 assert_eq!(
                                     d.to_bits(),
@@ -422,7 +431,7 @@ mod tests {
                             }
                         }
                         for (got, n) in got.into_iter().zip([left, left * -1.0]) {
-                            let full = search(&slice, plan, p, n, &fan);
+                            let full = search(slice, plan, p, n, &fan);
                             asked += 1;
                             if let Some(best) = got {
                                 answered += 1;
@@ -437,7 +446,7 @@ mod tests {
                     }
                 }
             }
-        }
+        });
         assert!(
             answered * 4 >= asked * 3,
             "the disk answered {answered} of {asked} queries"
@@ -449,6 +458,7 @@ mod tests {
             cleared.0
         );
     }
+
     /// The zigzag layer of random slices is the same with and without the disk, to the bit:
     /// every band and clearance the roads and the meanders' strokes ask, over the MCLs the
     /// zigzag lays (its parity subset, in its order).
@@ -456,27 +466,17 @@ mod tests {
     fn the_zigzag_is_the_same_without_the_disk() {
         use crate::toolpath::zigzag::zigzag;
         use crate::toolpath::DigestSink;
-        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
-        let mut planner = Box::new(Planner::new());
-        let mut slices = 0;
-        while slices < 6 {
-            let Some(slice) = random_slice(&mut rng) else {
-                continue;
-            };
-            let Ok(plan) = planner.plan(&slice) else {
-                continue;
-            };
-            slices += 1;
+        planned_slices(0x5851_f42d_4c95_7f2d, 6, |slices, slice, plan| {
             let layer = |unasked: bool| {
                 UNASKED.with(|u| u.set(unasked));
                 let mut sink = DigestSink::new();
-                let stats = zigzag(&slice, plan, &mut sink).map(|s| (s, sink.digest()));
+                let stats = zigzag(slice, plan, &mut sink).map(|s| (s, sink.digest()));
                 UNASKED.with(|u| u.set(false));
                 stats
             };
             let (with, without) = (layer(false), layer(true));
             assert!(with.is_ok(), "slice {slices}: {with:?}");
             assert_eq!(with, without, "slice {slices}");
-        }
+        });
     }
 }
