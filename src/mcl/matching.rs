@@ -272,18 +272,66 @@ pub(crate) fn crosses_finished_boxed(
     holes: &[u8],
 ) -> bool {
     let bb = primitives::bbox(pts);
-    halves.iter().enumerate().any(|(k, h)| {
-        if !(h.alive
-            && holes.contains(&h.hole)
-            && !skip.contains(&k)
-            && (h.end == HalfEnd::Wall || h.partner.is_some()))
-        {
-            return false;
-        }
-        let hb = box_of(k, h);
-        polyline::boxes_overlap(bb, hb, 1e-4)
-            && polyline::polylines_cross_boxed(pts, bb, halves.points_of(h), hb)
+    halves
+        .iter()
+        .enumerate()
+        .any(|(k, h)| crosses_half(halves, k, h, || box_of(k, h), pts, bb, skip, holes))
+}
+
+/// Every half's bounding box, and the box around each run of `run` halves' boxes.
+#[derive(Clone, Copy)]
+pub(crate) struct HalfBoxes<'a> {
+    /// One box per half.
+    pub boxes: &'a [(Point, Point)],
+    /// One box per run of `run` halves.
+    pub runs: &'a [(Point, Point)],
+    /// Halves per run.
+    pub run: usize,
+}
+
+/// [`crosses_finished_boxed`] with the halves' boxes and their runs' in `index`: a run whose
+/// box is clear of `pts`' holds no half whose box meets it, and is passed over whole (the
+/// same answer).
+pub(crate) fn crosses_finished_chunked(
+    halves: &Halves,
+    index: HalfBoxes<'_>,
+    pts: &[Point],
+    skip: &[usize],
+    holes: &[u8],
+) -> bool {
+    let bb = primitives::bbox(pts);
+    let n = index.run;
+    index.runs.iter().enumerate().any(|(c, &run)| {
+        let box_of = |k: usize| index.boxes[k];
+        polyline::boxes_overlap(bb, run, 1e-4)
+            && (c * n..((c + 1) * n).min(halves.len()))
+                .any(|k| crosses_half(halves, k, &halves[k], || box_of(k), pts, bb, skip, holes))
     })
+}
+
+/// Whether finished half `k` (`h`, its box from `hb`) counts for [`crosses_finished`] and
+/// crosses `pts` (whose box is `bb`).
+#[allow(clippy::too_many_arguments)]
+fn crosses_half(
+    halves: &Halves,
+    k: usize,
+    h: &Half,
+    hb: impl FnOnce() -> (Point, Point),
+    pts: &[Point],
+    bb: (Point, Point),
+    skip: &[usize],
+    holes: &[u8],
+) -> bool {
+    if !(h.alive
+        && holes.contains(&h.hole)
+        && !skip.contains(&k)
+        && (h.end == HalfEnd::Wall || h.partner.is_some()))
+    {
+        return false;
+    }
+    let hb = hb();
+    polyline::boxes_overlap(bb, hb, 1e-4)
+        && polyline::polylines_cross_boxed(pts, bb, halves.points_of(h), hb)
 }
 
 /// Points of a finished MCL made of halves `first` and (optionally) `second`.

@@ -14,9 +14,10 @@ use heapless::Vec;
 use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
 use crate::error::{Error, Limit};
+use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::mcl::insert::sorted_halves;
-use crate::mcl::matching::crosses_finished_boxed;
+use crate::mcl::matching::{crosses_finished_chunked, HalfBoxes};
 use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
 use crate::stats::PlanStats;
 use crate::Slice;
@@ -75,6 +76,13 @@ pub fn relax(
             .push(primitives::bbox(halves.points(k)))
             .map_err(|_| Limit::Halves.error())?;
     }
+    let mut chunks: Vec<(Point, Point), { MAX_HALVES.div_ceil(RUN) }> = Vec::new();
+    for run in boxes.chunks(RUN) {
+        // Never full: one box per run of the boxes.
+        chunks
+            .push(run_box(run))
+            .map_err(|_| Limit::Halves.error())?;
+    }
     for _ in 0..settings.relax_iterations {
         // Jacobi-style: every step is computed from the same state, then applied, so the
         // result does not depend on the order of the ends (symmetric slices stay symmetric).
@@ -88,7 +96,17 @@ pub fn relax(
         }
         let mut moved = false;
         for (&e, &step) in list.iter().zip(steps.iter()) {
-            if step.norm2() > 0.0 && try_move(slice, cells, halves, &mut boxes, e as usize, step) {
+            if step.norm2() > 0.0
+                && try_move(
+                    slice,
+                    cells,
+                    halves,
+                    &mut boxes,
+                    &mut chunks,
+                    e as usize,
+                    step,
+                )
+            {
                 stats.relax_moves += 1;
                 moved = true;
             }
@@ -166,13 +184,28 @@ fn relax_step(halves: &Halves, ring: &[(u16, u16)], list: &[u16], e: usize, spac
     }
 }
 
+/// How many halves in a row share one box of `relax`'s runs.
+const RUN: usize = 16;
+
+/// The box around the boxes of a run.
+fn run_box(run: &[(Point, Point)]) -> (Point, Point) {
+    run.iter().fold(run[0], |(lo, hi), &(a, b)| {
+        (
+            Point::new(lo.x.fmin(a.x), lo.y.fmin(a.y)),
+            Point::new(hi.x.fmax(b.x), hi.y.fmax(b.y)),
+        )
+    })
+}
+
 /// Moves end `e` by (the projection onto its curve of) `push`; false if the move is refused.
-/// `boxes` holds every half's bounding box, and is kept so.
+/// `boxes` holds every half's bounding box and `runs` the box around each run of [`RUN`]
+/// halves' boxes, and are kept so.
 fn try_move(
     slice: &Slice,
     cells: &Cells,
     halves: &mut Halves,
     boxes: &mut [(Point, Point)],
+    runs: &mut [(Point, Point)],
     e: usize,
     push: Point,
 ) -> bool {
@@ -231,10 +264,14 @@ fn try_move(
         halves[e].hole,
         partner.map_or(halves[e].hole, |p| halves[p].hole),
     ];
-    let box_of = |k: usize, _: &Half| boxes[k];
-    if crosses_finished_boxed(halves, box_of, &a, &skip, &holes)
+    let index = HalfBoxes {
+        boxes,
+        runs,
+        run: RUN,
+    };
+    if crosses_finished_chunked(halves, index, &a, &skip, &holes)
         || b.as_ref()
-            .is_some_and(|b| crosses_finished_boxed(halves, box_of, b, &skip, &holes))
+            .is_some_and(|b| crosses_finished_chunked(halves, index, b, &skip, &holes))
     {
         return false;
     }
@@ -249,6 +286,10 @@ fn try_move(
     if let (Some(p), Some(b)) = (partner, b.as_mut()) {
         boxes[p] = primitives::bbox(b);
         halves.set_points(p, b);
+    }
+    for k in [Some(e), partner].into_iter().flatten() {
+        let c = k / RUN;
+        runs[c] = run_box(&boxes[c * RUN..((c + 1) * RUN).min(boxes.len())]);
     }
     true
 }
