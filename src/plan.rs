@@ -37,6 +37,17 @@ impl Plan {
         )
     }
 
+    /// The box around an MCL's points, from its halves' without copying them: the box of
+    /// [`points`](Self::points) (which leaves out the second half's copy of the joint, the same
+    /// point as the first half's end), or one that also holds that copy where it differs: a
+    /// bound for every search that skips MCLs by their box.
+    pub fn mcl_box(&self, mcl: &Mcl) -> (Point, Point) {
+        let first = primitives::bbox(self.halves.points(mcl.first as usize));
+        mcl.second.map_or(first, |s| {
+            primitives::union(first, primitives::bbox(self.halves.points(s as usize)))
+        })
+    }
+
     /// The points of an MCL as [`points`](Self::points) gives them, without copying them.
     pub fn points_iter(&self, mcl: &Mcl) -> impl Iterator<Item = Point> + '_ {
         let first = self.halves.points(mcl.first as usize).iter();

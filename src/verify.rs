@@ -142,18 +142,6 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
             return Err(Violation::Dangling { half: h as u16 });
         }
     }
-    // An MCL's box from its halves' points, without copying them: the same bits as the box
-    // of its joined points (the joint, which both halves hold, is one of them).
-    let mcl_box = |m: &crate::Mcl| {
-        let (lo, hi) = primitives::bbox(plan.halves.points(m.first as usize));
-        m.second.map_or((lo, hi), |s| {
-            let (slo, shi) = primitives::bbox(plan.halves.points(s as usize));
-            (
-                Point::new(lo.x.fmin(slo.x), lo.y.fmin(slo.y)),
-                Point::new(hi.x.fmax(shi.x), hi.y.fmax(shi.y)),
-            )
-        })
-    };
     for (a, ma) in plan.mcls.iter().enumerate() {
         let pa = plan.points(ma);
         let ba = primitives::bbox(&pa);
@@ -164,7 +152,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     b: b as u16,
                 });
             }
-            if polyline::boxes_overlap(ba, mcl_box(mb), 1e-4)
+            if polyline::boxes_overlap(ba, plan.mcl_box(mb), 1e-4)
                 && polyline::polylines_cross(&pa, &plan.points(mb))
             {
                 return Err(Violation::Crossing {

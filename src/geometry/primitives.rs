@@ -128,3 +128,16 @@ pub fn bbox(pts: &[Point]) -> (Point, Point) {
     }
     (lo, hi)
 }
+
+/// The box around boxes `a` and `b` (exact: the least and greatest coordinates).
+pub fn union(a: (Point, Point), b: (Point, Point)) -> (Point, Point) {
+    (
+        Point::new(fmin(a.0.x, b.0.x), fmin(a.0.y, b.0.y)),
+        Point::new(fmax(a.1.x, b.1.x), fmax(a.1.y, b.1.y)),
+    )
+}
+
+/// The box around `boxes` (as [`bbox`] of no points where there are none).
+pub fn union_all(boxes: &[(Point, Point)]) -> (Point, Point) {
+    boxes.iter().fold(bbox(&[]), |acc, &b| union(acc, b))
+}

@@ -229,18 +229,26 @@ fn trace(
     let half = 0.5 * w;
     let h = field.grid().h;
     let step = 0.5 * h.fmin(w);
-    // The direction at `x`, whose nearest point of hole `i` is `near`.
-    let direction_at = |x: Point, near: Nearest| {
+    // Far enough from hole `i` (by a lower bound `lo` of its distance) for its normal to be
+    // weighted by nothing in the direction: a grid step beyond half a road.
+    let far = |lo: f32| lo >= half + h * (1.0 + 1e-3);
+    // The direction at `x`: the field's gradient blended with hole `i`'s normal there (from
+    // its nearest point `near`, measured if not given) by the distance. Where `lo` keeps the
+    // hole far, the normal's weight is 0 and the hole is not measured (`n * 0 + g` is `g`;
+    // the zero added settles a zero coordinate's sign as the blend's would).
+    let direction = |x: Point, lo: f32, near: Option<Nearest>| {
+        let g = field.gradient(x, i).filter(|g| g.norm2() > 1e-12);
+        if let (true, Some(g)) = (far(lo), g) {
+            return (Point::new(0.0, 0.0) + g.normalized()).normalized();
+        }
+        let near = near.unwrap_or_else(|| slice.holes()[i].nearest(x));
         let (n, d) = (near.gradient(x), near.distance);
         let weight = ((d - half) / h).clamp(0.0, 1.0);
-        match field.gradient(x, i) {
-            Some(g) if g.norm2() > 1e-12 => {
-                (n * (1.0 - weight) + g.normalized() * weight).normalized()
-            }
-            _ => n,
+        match g {
+            Some(g) => (n * (1.0 - weight) + g.normalized() * weight).normalized(),
+            None => n,
         }
     };
-    let direction = |x: Point| direction_at(x, slice.holes()[i].nearest(x));
     let own = |x: Point| slice.holes()[i].signed_distance(x);
     let others = |x: Point| {
         (0..slice.holes().len())
@@ -248,40 +256,26 @@ fn trace(
             .map(|c| (c, slice.holes()[c].signed_distance(x)))
             .fold((i, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     };
-    // Whether another hole is as near `x` as `d` (`others(x).1 <= d`), measuring only the
-    // holes whose box is not clearly farther than `d` (by more than rounding could move
-    // either: a hole's distance is at least its box's).
-    let other_within = |x: Point, d: f32| {
-        slice.holes().iter().enumerate().any(|(c, f)| {
-            let far = d + polygon::rounding_slack(x, f.bbox());
-            c != i
-                && (d < 0.0 || polygon::bbox_distance2(f.bbox(), x) <= far * far)
-                && f.signed_distance(x) <= d
-        })
+    // Whether hole `f`'s box lies within `d` of `x` (by more than rounding could move either:
+    // a hole's distance is at least its box's).
+    let box_within = |f: &crate::Feature, x: Point, d: f32| {
+        let reach = d + polygon::rounding_slack(x, f.bbox());
+        polygon::bbox_distance2(f.bbox(), x) <= reach * reach
     };
-    // Far enough from hole `i` (by a lower bound `lo` of its distance), its nearest point is
-    // weighted by nothing (`direction_at`'s weight is 1): the field alone steers, and the
-    // point is not measured.
-    let far = |lo: f32| lo >= half + h * (1.0 + 1e-3);
-    let steered = |x: Point, lo: f32| {
-        if far(lo) {
-            field
-                .gradient(x, i)
-                .filter(|g| g.norm2() > 1e-12)
-                .map(|g| (Point::new(0.0, 0.0) + g.normalized()).normalized())
-        } else {
-            None
-        }
+    // Whether another hole is as near `x` as `d` (`others(x).1 <= d`), measuring only the
+    // holes whose box is within `d`.
+    let other_within =
+        |x: Point, d: f32| {
+            slice.holes().iter().enumerate().any(|(c, f)| {
+                c != i && (d < 0.0 || box_within(f, x, d)) && f.signed_distance(x) <= d
+            })
+        };
+    // Whether another hole's box lies within `d` of `x`: where none does, no other hole is
+    // as near `x` as `d` (`other_within` would measure none).
+    let other_box_within = |x: Point, d: f32| {
+        (slice.holes().iter().enumerate()).any(|(c, f)| c != i && box_within(f, x, d))
     };
     let hole_box = slice.holes()[i].bbox();
-    // Whether another hole's box lies within `d` of `x` (plus rounding): where none does, no
-    // other hole is as near `x` as `d` (`other_within` would measure none).
-    let other_box_within = |x: Point, d: f32| {
-        slice.holes().iter().enumerate().any(|(c, f)| {
-            let far = d + polygon::rounding_slack(x, f.bbox());
-            c != i && polygon::bbox_distance2(f.bbox(), x) <= far * far
-        })
-    };
     out.clear();
     out.push(start).ok()?;
     let mut p = start;
@@ -290,8 +284,9 @@ fn trace(
     // than a step's length over a step, so where the field alone steers, no other hole is
     // near and the lower bound keeps the hole beyond half a road, `q` is not measured and the
     // bounds widen by the step (and rounding) instead.
-    let mut near_p = Some(slice.holes()[i].nearest(p));
-    let (mut lo_p, mut hi_p) = near_p.map_or((0.0, 0.0), |n| (n.distance, n.distance));
+    let first = slice.holes()[i].nearest(p);
+    let mut near_p = Some(first);
+    let (mut lo_p, mut hi_p) = (first.distance, first.distance);
     // A lower bound of the wall's clearance at `p`: the distance to the wall changes by no
     // more than a step's length over a step, so the wall is measured again only where the
     // bound, less rounding, no longer keeps it farther than half a road. Each step takes a
@@ -299,13 +294,10 @@ fn trace(
     // carried over many steps stays below the clearance.
     let mut wall_p = slice.wall_clearance(p);
     while out.len() < TRACE_POINTS - 1 {
-        let d1 = steered(p, lo_p).unwrap_or_else(|| match near_p {
-            Some(near) => direction_at(p, near),
-            None => direction(p),
-        });
+        let d1 = direction(p, lo_p, near_p);
         let mid = p + d1 * (0.5 * step);
         let lo_mid = lo_p - mid.dist(p) - polygon::rounding_slack(mid, hole_box);
-        let d2 = steered(mid, lo_mid).unwrap_or_else(|| direction(mid));
+        let d2 = direction(mid, lo_mid, None);
         let q = p + d2 * step;
         let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
         let wall_q = if bound > half + polygon::rounding_slack(q, slice.wall().bbox()) {

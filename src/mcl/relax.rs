@@ -14,7 +14,6 @@ use heapless::Vec;
 use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
 use crate::error::{Error, Limit};
-use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::mcl::insert::sorted_halves;
 use crate::mcl::matching::{crosses_finished_chunked, HalfBoxes};
@@ -80,7 +79,7 @@ pub fn relax(
     for run in boxes.chunks(RUN) {
         // Never full: one box per run of the boxes.
         chunks
-            .push(run_box(run))
+            .push(primitives::union_all(run))
             .map_err(|_| Limit::Halves.error())?;
     }
     for _ in 0..settings.relax_iterations {
@@ -187,16 +186,6 @@ fn relax_step(halves: &Halves, ring: &[(u16, u16)], list: &[u16], e: usize, spac
 /// How many halves in a row share one box of `relax`'s runs.
 const RUN: usize = 16;
 
-/// The box around the boxes of a run.
-fn run_box(run: &[(Point, Point)]) -> (Point, Point) {
-    run.iter().fold(run[0], |(lo, hi), &(a, b)| {
-        (
-            Point::new(lo.x.fmin(a.x), lo.y.fmin(a.y)),
-            Point::new(hi.x.fmax(b.x), hi.y.fmax(b.y)),
-        )
-    })
-}
-
 /// Moves end `e` by (the projection onto its curve of) `push`; false if the move is refused.
 /// `boxes` holds every half's bounding box and `runs` the box around each run of [`RUN`]
 /// halves' boxes, and are kept so.
@@ -289,7 +278,7 @@ fn try_move(
     }
     for k in [Some(e), partner].into_iter().flatten() {
         let c = k / RUN;
-        runs[c] = run_box(&boxes[c * RUN..((c + 1) * RUN).min(boxes.len())]);
+        runs[c] = primitives::union_all(&boxes[c * RUN..((c + 1) * RUN).min(boxes.len())]);
     }
     true
 }

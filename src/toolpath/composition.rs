@@ -5,7 +5,7 @@ use core::cell::Cell;
 
 use crate::config::CHANNELS;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polygon, polyline, primitives, Point};
+use crate::geometry::{polygon, polyline, Point};
 use crate::{Material, Plan, Slice, Target};
 
 /// `(1 - t) a + t b`, channel by channel; exactly `a` at `t = 0` and `b` at `t = 1`.
@@ -88,7 +88,7 @@ impl<'a> BlendedField<'a> {
         let mut boxes = [(Point::default(), Point::default()); crate::config::MAX_MCLS];
         // One slot per MCL: `plan.mcls` holds at most MAX_MCLS, so none is left out.
         for (slot, m) in boxes.iter_mut().zip(plan.mcls.iter()) {
-            *slot = primitives::bbox(&plan.points(m));
+            *slot = plan.mcl_box(m);
         }
         BlendedField {
             slice,

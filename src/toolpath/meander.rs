@@ -91,16 +91,13 @@ pub(super) fn fan_boxes(
     chunks.clear();
     for &k in laid {
         boxes
-            .push(primitives::bbox(&plan.points(&plan.mcls[k as usize])))
+            .push(plan.mcl_box(&plan.mcls[k as usize]))
             .map_err(|_| Limit::Mcls.error())?;
     }
     for run in boxes.chunks(CHUNK) {
-        let (mut lo, mut hi) = run[0];
-        for &(a, b) in run {
-            lo = Point::new(lo.x.fmin(a.x), lo.y.fmin(a.y));
-            hi = Point::new(hi.x.fmax(b.x), hi.y.fmax(b.y));
-        }
-        chunks.push((lo, hi)).map_err(|_| Limit::Mcls.error())?;
+        chunks
+            .push(primitives::union_all(run))
+            .map_err(|_| Limit::Mcls.error())?;
     }
     Ok(())
 }
