@@ -22,7 +22,9 @@ const NEAR_EDGES: usize = 96;
 /// hit and its balls (`2 t` from `p`) stay inside the room the disk leaves around `p`, most
 /// bands are one to two roads wide, and a wider disk holds more segments. 3 roads, filled
 /// again at [`NEAR_REFILL`], took the fewest instructions on four_holes (QEMU) among radii of
-/// 2 to 6 roads and refill distances of 0.4 to 1.0 of the radius.
+/// 2 to 6 roads and refill distances of 0.4 to 1.0 of the radius. On six random slices of
+/// 2-26 holes (host, callgrind, the zigzag alone) 3 roads took 1 703 M instructions in all,
+/// 4 roads 3 % fewer, 5 roads 6 % more, and the full search alone 4 692 M.
 const NEAR_ROADS: f32 = 3.0;
 /// How far from its centre, as a share of its radius, a query has the disk filled again
 /// around it before it is asked.
