@@ -63,6 +63,13 @@ fn main() {
             .collect();
         format!("[{}]", m.join(", "))
     };
+    // The board capacities (`compact`) hold the reference slices at 2.5 times their road
+    // width (1.0 mm: the same shapes as slices 0.4 of their size at 0.4 mm), not at their own.
+    let road_scale = if std::env::var_os("CARGO_FEATURE_COMPACT").is_some() {
+        2.5
+    } else {
+        1.0
+    };
     let mut s = String::new();
     let mut entries = Vec::new();
     for name in ["four_holes", "three_holes", "two_holes", "vessel_ring"] {
@@ -82,7 +89,7 @@ fn main() {
             points(outer),
             material(outer),
             holes.join(", "),
-            f32_bits(&v["settings"]["road_width"])
+            f32_bits(&(v["settings"]["road_width"].as_f64().unwrap() * road_scale).into())
         ));
     }
     writeln!(

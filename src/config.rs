@@ -5,7 +5,7 @@
 //! with its [`Limit`](crate::Limit), or [`Error::SliceTooLarge`](crate::Error::SliceTooLarge)
 //! for the grids), never a panic and never a silently truncated plan.
 //!
-//! ## Two sets of capacities, one plan
+//! ## Three sets of capacities, one plan
 //!
 //! The default sizes are the MCU build's: the whole [`Planner`](crate::Planner) is about
 //! 270 KiB and is meant to live in a `static`, the offset spiral's working memory 97 KiB, a
@@ -15,6 +15,17 @@
 //! `firmware/memory.x` (its bench needs 449 KiB with its stack, the link firmware 481 KiB),
 //! while the BTT SKR 2's STM32F407 that the top-level `memory.x` describes has 192 KiB (128
 //! KiB SRAM and 64 KiB CCM), a budget the core's working memory does not meet yet.
+//!
+//! The cargo feature `compact` (the SKR 2 image, `boards/skr2`, enables it) selects board
+//! capacities: 4 hollow features of up to 192 vertices, 5 120 grid nodes, 192 MCL halves of
+//! 12 points on average, 2 560 offset-spiral contour points. The `Planner` is then 75 KiB,
+//! the offset spiral 29 KiB, a `Slice` 13 KiB, the link firmware's whole application 116
+//! KiB: with the link's session, the step side and a 32 KiB stack the image takes 180 KiB of
+//! the STM32F407's 192 KiB (`host-sim/tests/mcu.rs` reads it from the ELF). That holds the
+//! reference slices at 1.0 mm roads (the same shapes 10-14 mm across at 0.4 mm roads), and
+//! refuses larger slices with the capacity error naming what to change; where both builds
+//! accept a slice the plans are the same bits. Until planning runs cell by cell, that is
+//! the largest slice the F407 plans.
 //!
 //! The cargo feature `large` (host-sim enables it; the firmware does not) selects real-size
 //! capacities: 64 hollow features of up to 4096 vertices, and a field grid of 65 536 nodes
@@ -26,7 +37,7 @@
 //! The capacities only decide whether a slice is accepted: everything that shapes a plan (the
 //! grid spacings, [`GRID_SPACING_NODES`], the per-polyline point budgets [`HALF_POINTS`] and
 //! [`BISECTOR_POINTS`] that the simplification tolerances are searched against) is the same in
-//! both sets, so a slice both builds accept gets bit-identical plans (`host-sim/tests/mcu.rs`).
+//! every set, so a slice two builds accept gets bit-identical plans (`host-sim/tests/mcu.rs`).
 //!
 //! RAM per unit of capacity (bytes; the `large` figures in brackets):
 //!
@@ -44,11 +55,31 @@
 
 /// Whether the real-size capacities of the cargo feature `large` are compiled in.
 pub const LARGE: bool = cfg!(feature = "large");
+/// Whether the board capacities of the cargo feature `compact` are compiled in: what fits an
+/// STM32F407's 192 KiB beside the link, the motion queue and the stack (`boards/skr2`).
+pub const COMPACT: bool = cfg!(feature = "compact");
+
+#[cfg(all(feature = "large", feature = "compact"))]
+compile_error!(
+    "the cargo features `large` (the host's real-size capacities) and `compact` (a board's) \
+     choose different capacities: enable one of them"
+);
+
+/// A capacity in each build: `large`, the default (the QEMU firmware's), `compact`.
+const fn by_build(large: usize, default: usize, compact: usize) -> usize {
+    if LARGE {
+        large
+    } else if COMPACT {
+        compact
+    } else {
+        default
+    }
+}
 
 /// Most hollow features in one slice (8; 64 with `large`).
-pub const MAX_HOLES: usize = if LARGE { 64 } else { 8 };
+pub const MAX_HOLES: usize = by_build(64, 8, 4);
 /// Most vertices of one polygon, the wall or a hollow feature (256; 4096 with `large`).
-pub const MAX_VERTICES: usize = if LARGE { 4_096 } else { 256 };
+pub const MAX_VERTICES: usize = by_build(4_096, 256, 192);
 /// Material channels (reservoirs / valves) per composition.
 pub const CHANNELS: usize = 4;
 /// Contours with more distinct vertices than this are simplified within the slice's
@@ -67,9 +98,9 @@ pub const MAX_RELAX_ITERATIONS: u8 = 64;
 
 /// Nodes of the grid that carries the cell labels and the harmonic field (16 384; 65 536
 /// with `large`). Also the capacity of the offset spiral's distance grid.
-pub const GRID_NODES: usize = if LARGE { 65_536 } else { 16_384 };
+pub const GRID_NODES: usize = by_build(65_536, 16_384, 5_120);
 /// Grid nodes next to a boundary, the Shortley-Weller table (3072; 32 768 with `large`).
-pub const BOUNDARY_NODES: usize = if LARGE { 32_768 } else { 3_072 };
+pub const BOUNDARY_NODES: usize = by_build(32_768, 3_072, 640);
 /// Preferred grid spacing as a fraction of the road width.
 pub const GRID_SPACING_PER_ROAD: f32 = 0.6;
 /// The spacing rule's node budget, the same in every build (not a capacity): from the
@@ -89,18 +120,18 @@ pub const FIELD_TOLERANCE: f32 = 2.0e-6;
 pub const FIELD_OMEGA: f32 = 1.9;
 
 /// Most bisector pieces (one per adjacent pair of cells, more where the wall splits one).
-pub const MAX_BISECTORS: usize = if LARGE { 256 } else { 20 };
+pub const MAX_BISECTORS: usize = by_build(256, 20, 8);
 /// Most points of one stored bisector polyline, the same in every build: a traced bisector is
 /// simplified with the finest tolerance (from 2 µm, doubling) that fits it, so this shapes
 /// the plan.
 pub const BISECTOR_POINTS: usize = 128;
 /// Most branch points.
-pub const MAX_BRANCH_POINTS: usize = if LARGE { 512 } else { 48 };
+pub const MAX_BRANCH_POINTS: usize = by_build(512, 48, 16);
 /// Grid edges where two cells meet, used as seeds for tracing bisectors.
-pub const BISECTOR_SEEDS: usize = if LARGE { 16_384 } else { 2_048 };
+pub const BISECTOR_SEEDS: usize = by_build(16_384, 2_048, 768);
 
 /// Most MCL halves (feature to cell boundary) traced in one slice.
-pub const MAX_HALVES: usize = if LARGE { 16_384 } else { 640 };
+pub const MAX_HALVES: usize = by_build(16_384, 640, 192);
 /// Most points of one traced half after simplification, the same in every build: a half is
 /// simplified with the finest tolerance (from 0.5 % of a road, doubling) that fits it, so this
 /// shapes the plan.
@@ -108,23 +139,23 @@ pub const HALF_POINTS: usize = 24;
 /// Points of all the MCL halves of one plan together (12 800; 327 680 with `large`): 20 a
 /// half on average. Measured points per traced half: 5-14 on the reference slices; on 200
 /// random slices (host-sim's `random_slice`, seeds 1..) median 9.5, p90 15.2, max 18.4.
-pub const HALF_POOL_POINTS: usize = 20 * MAX_HALVES;
+pub const HALF_POOL_POINTS: usize = by_build(20, 20, 12) * MAX_HALVES;
 /// Most points of one output MCL (a matched pair is two halves).
 pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.
-pub const MAX_MCLS: usize = if LARGE { 8_192 } else { 512 };
+pub const MAX_MCLS: usize = by_build(8_192, 512, 160);
 /// Raw streamline points before simplification.
-pub const TRACE_POINTS: usize = if LARGE { 4_096 } else { 1_024 };
+pub const TRACE_POINTS: usize = by_build(4_096, 1_024, 1_024);
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 
 /// Points of all the offset spiral's traced loops together
 /// ([`OffsetSpiral`](crate::toolpath::offset::OffsetSpiral)).
-pub const CONTOUR_POINTS: usize = if LARGE { 65_535 } else { 8_192 };
+pub const CONTOUR_POINTS: usize = by_build(65_535, 8_192, 2_560);
 /// Most loops of one offset-spiral layer.
-pub const MAX_LOOPS: usize = if LARGE { 4_096 } else { 256 };
+pub const MAX_LOOPS: usize = by_build(4_096, 256, 64);
 /// Most pairs of loops running side by side (and joins) in one offset-spiral layer.
-pub const MAX_SITES: usize = if LARGE { 8_192 } else { 512 };
+pub const MAX_SITES: usize = by_build(8_192, 512, 128);
 
 /// Vertices of one layer's path in the firmware's buffer (a host sink may hold more).
 pub const PATH_VERTICES: usize = 8_192;

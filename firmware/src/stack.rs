@@ -1,7 +1,8 @@
 //! The stack: its guard, its fault entry and its RAM figures.
 //!
 //! **Guard.** The stack sits at the bottom of RAM, below the statics (`firmware/memory.x`),
-//! and grows down towards the start of RAM. The [`GUARD`] bytes below it are an MPU region
+//! and grows down towards the start of RAM. The bytes below it (from `_stack_guard`, which
+//! the memory layout defines) are an MPU region
 //! no code may read or write ([`install_guard`]): a stack that grows past its bottom faults at
 //! once, however large the frame that overflows (up to the guard's 64 KiB; the largest frame
 //! of the firmwares is the zigzag's, 31 KiB), and can never reach a static above it.
@@ -14,10 +15,10 @@
 //! frames overwrite `main`'s, which never runs again), and calls the firmware's
 //! `on_hard_fault(sp, pc)`, which closes the valves and says what happened (`fault.rs`).
 //!
-//! The guard is the 64 KiB below RAM: on QEMU's mps2-an386 nothing is there. On an STM32
-//! that range can hold system memory (the bootloader, the unique ID, calibration values):
-//! a firmware that reads them must place its stack elsewhere (the SKR 2's in its CCM, whose
-//! lower neighbour is reserved address space), or its reads would be reported as overflows.
+//! On QEMU the guard is the 64 KiB below RAM, where nothing is: on an STM32 that range can
+//! hold system memory (the bootloader, the unique ID, calibration values), so the SKR 2's
+//! stack sits in its CCM instead, above a 4 KiB guard at the CCM's start (whose lower
+//! neighbour is reserved address space: a frame larger than the guard faults there too).
 //!
 //! **Figures.** The statics (everything the linker places in RAM, `.data`, `.bss`,
 //! `.uninit`) and the stack's peak, measured by painting the free stack between its bottom
@@ -29,16 +30,15 @@ use core::sync::atomic::{AtomicUsize, Ordering};
 /// The paint: a word a frame is unlikely to leave behind.
 const PAINT: u32 = 0xC0DE_5AFE;
 
-/// Bytes of the guard region below the stack: a power of two (the MPU's rule: its base
-/// aligned to its size), larger than any frame of the firmwares.
-pub const GUARD: usize = 64 * 1024;
-const _: () = assert!(GUARD.is_power_of_two() && GUARD >= 32);
-
 extern "C" {
     static _ram_start: u32;
     static __sheap: u32;
     static _stack_start: u32;
     static _stack_end: u32;
+    /// The guard's start, from the memory layout (`memory.x`): the guard runs from here to
+    /// the stack's bottom, a power of two of bytes aligned to its size (the MPU's rule),
+    /// larger than any frame of the firmware (64 KiB on QEMU, 4 KiB in the SKR 2's CCM).
+    static _stack_guard: u32;
 }
 
 fn addr(s: &u32) -> usize {
@@ -57,10 +57,11 @@ pub fn statics() -> usize {
     unsafe { addr(&__sheap) - addr(&_ram_start) }
 }
 
-/// The guard region, `[start, end)`: the [`GUARD`] bytes below the stack's bottom.
+/// The guard region, `[start, end)`: from `_stack_guard` to the stack's bottom.
 pub fn guard() -> (usize, usize) {
     let (bottom, _) = stack_bounds();
-    (bottom - GUARD, bottom)
+    // SAFETY: only the address of the linker's symbol is taken, never its contents.
+    (unsafe { addr(&_stack_guard) }, bottom)
 }
 
 /// Bytes of the stack: the most it can take.
@@ -71,15 +72,17 @@ pub fn room() -> usize {
 
 /// Makes the guard region inaccessible (MPU region 0: no access, never executed) and enables
 /// the MPU with the default memory map everywhere else. Call it once, after [`paint`]ing.
-/// Returns `false` (and installs nothing) if the guard is not aligned to its size.
+/// Returns `false` (and installs nothing) if the guard is not a power of two of at least 32
+/// bytes aligned to its size.
 pub fn install_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
-    let (start, _) = guard();
-    if start % GUARD != 0 {
+    let (start, end) = guard();
+    let size = end.wrapping_sub(start);
+    if !size.is_power_of_two() || size < 32 || start % size != 0 {
         return false;
     }
-    // RASR: XN (bit 28), AP = 0b000 (no access, bits 24..26), SIZE = log2(GUARD) - 1 (bits
+    // RASR: XN (bit 28), AP = 0b000 (no access, bits 24..26), SIZE = log2(size) - 1 (bits
     // 1..5), ENABLE (bit 0).
-    let rasr = (1 << 28) | ((GUARD.trailing_zeros() - 1) << 1) | 1;
+    let rasr = (1 << 28) | ((size.trailing_zeros() - 1) << 1) | 1;
     // SAFETY: region 0 covers only the guard, below the RAM the stack and the statics use;
     // PRIVDEFENA keeps the default map for everything else, so no other access changes. The
     // barriers make the new map apply from the next instruction.

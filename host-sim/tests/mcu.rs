@@ -362,3 +362,144 @@ fn failing_firmware(bin: &str, what: &str) -> Option<String> {
     assert!(!status.success(), "{what} ended in success:\n{out}");
     Some(out)
 }
+
+/// A region's length in the top-level `memory.x` (the SKR 2's), bytes: the line
+/// `NAME : ORIGIN = .., LENGTH = NK` (or `NK - MK`).
+fn board_region(name: &str) -> usize {
+    let memory = std::fs::read_to_string(qemu::workspace().join("memory.x")).unwrap();
+    let line = memory
+        .lines()
+        .find(|l| l.trim_start().starts_with(name) && l.contains("LENGTH"))
+        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
+    let length = line.split("LENGTH =").nth(1).unwrap();
+    length
+        .split('-')
+        .map(|t| t.trim().trim_end_matches('K').parse::<usize>().unwrap() * 1024)
+        .reduce(|a, b| a - b)
+        .unwrap()
+}
+
+/// The board capacities (`hollowpath/compact`, the SKR 2 image's) run the same application
+/// code under QEMU: the four reference slices at 2.5 times their road width (1.0 mm, the
+/// shapes of slices 0.4 of their size at 0.4 mm) plan and lay bit-identically to the host,
+/// and the painted stack's peak fits the SKR 2's stack region (`memory.x`), which QEMU
+/// cannot run.
+#[test]
+fn the_board_capacities_plan_like_the_host_within_the_skr2_stack() {
+    if !qemu::available("board capacities") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::compact_firmware(None);
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q
+        .wait_exit(Duration::from_secs(600))
+        .unwrap_or_else(|| panic!("the compact firmware did not finish within 600 s"));
+    let (out, err) = (q.stdout(), q.stderr());
+    println!("{out}");
+    assert!(status.success(), "compact firmware failed:\n{out}\n{err}");
+    for (name, text) in host_sim::REFERENCE_SLICES {
+        let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
+        let w = json["settings"]["road_width"].as_f64().unwrap();
+        json["settings"]["road_width"] = (w * 2.5).into();
+        let slice = host_sim::slice_file::parse(&json.to_string())
+            .unwrap()
+            .slice;
+        let planner = host_sim::plan(&slice).unwrap();
+        let plan = planner.last_plan();
+        let expect = format!(
+            "slice {name} mcls {} bisectors {} branch_points {} digest {:016x}",
+            plan.mcls.len(),
+            plan.bisectors().len(),
+            plan.cells.branch_points.len(),
+            plan.digest()
+        );
+        assert!(out.lines().any(|l| l == expect), "no `{expect}` in:\n{out}");
+        let mut zigzag = hollowpath::toolpath::DigestSink::new();
+        hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
+        let mut offset = hollowpath::toolpath::DigestSink::new();
+        let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
+        let mut grid = Box::new(hollowpath::field::GridMemory::new());
+        work.build(&slice, plan, &mut grid, &mut offset).unwrap();
+        for (k, sink) in [zigzag, offset].iter().enumerate() {
+            let expect = format!(
+                "layer {name} {k} vertices {} digest {:016x}",
+                sink.len(),
+                sink.digest()
+            );
+            assert!(
+                out.lines().any(|l| l.starts_with(&expect)),
+                "no `{expect}` in:\n{out}"
+            );
+        }
+    }
+    let ram = out
+        .lines()
+        .find_map(|l| l.strip_prefix("ram static "))
+        .unwrap_or_else(|| panic!("no ram line in:\n{out}"));
+    let peak: usize = ram.split(" stack ").nth(1).unwrap().trim().parse().unwrap();
+    let room = board_region("STACK");
+    println!("compact: stack peak {peak} of the SKR 2's {room}");
+    assert!(
+        peak > 0 && peak <= room,
+        "the board capacities' stack peak {peak} is over the SKR 2's stack region {room}"
+    );
+}
+
+/// The SKR 2 image (`boards/skr2`, its own workspace) builds and fits the STM32F407: its
+/// statics in the 128 KiB of SRAM, its `.ccm` statics, stack and guard in the 64 KiB of CCM,
+/// the image in the flash after the bootloader (the linker fails if a region overflows; this
+/// reads the figures from the ELF and says them).
+#[test]
+fn the_skr2_image_fits_the_stm32f407() {
+    let ws = qemu::workspace();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let manifest = ws.join("boards/skr2/Cargo.toml");
+    let build = std::process::Command::new(cargo)
+        .current_dir(&ws)
+        .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+        .arg("--manifest-path")
+        .arg(&manifest)
+        .arg("--target-dir")
+        .arg(ws.join("target/skr2"))
+        .env_remove("RUSTFLAGS")
+        .output()
+        .unwrap();
+    assert!(
+        build.status.success(),
+        "SKR 2 build failed:\n{}",
+        String::from_utf8_lossy(&build.stderr)
+    );
+    let elf = std::fs::read(ws.join("target/skr2/thumbv7em-none-eabihf/release/hollowpath-skr2"))
+        .unwrap();
+    const SHF_ALLOC: u32 = 2;
+    const SHT_NOBITS: u32 = 8;
+    let sections = elf_sections(&elf);
+    let size = |name: &str| sections.iter().find(|s| s.0 == name).map_or(0, |s| s.3);
+    let flash: usize = sections
+        .iter()
+        .filter(|s| s.2 & SHF_ALLOC != 0 && s.1 != SHT_NOBITS && s.0 != ".defmt")
+        .map(|s| s.3)
+        .sum();
+    let sram = size(".data") + size(".bss") + size(".uninit");
+    let ccm = size(".ccm");
+    let (stack, guard) = (board_region("STACK"), board_region("GUARD"));
+    println!(
+        "skr2: flash {flash} of {}, sram {sram} of {} (data {}, bss {}, uninit {}), ccm {} \
+         of {}: statics {ccm}, stack {stack}, guard {guard}; RAM in all {} of {}",
+        board_region("FLASH"),
+        board_region("RAM"),
+        size(".data"),
+        size(".bss"),
+        size(".uninit"),
+        ccm + stack + guard,
+        64 * 1024,
+        sram + ccm + stack + guard,
+        192 * 1024
+    );
+    assert!(size(".text") > 0 && size(".bss") > 0, "{sections:?}");
+    assert!(flash <= board_region("FLASH"), "flash {flash}");
+    assert!(sram <= board_region("RAM"), "sram {sram}");
+    assert!(ccm <= board_region("CCMRAM"), "ccm {ccm}");
+    assert!(sram + ccm + stack + guard <= 192 * 1024);
+}

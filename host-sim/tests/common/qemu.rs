@@ -42,18 +42,35 @@ pub fn lock() -> MutexGuard<'static, ()> {
 /// Builds a firmware binary of `hollowpath-qemu` (`None`: the default one) for the
 /// Cortex-M4F, release, once per test binary; its ELF.
 pub fn firmware(bin: Option<&str>) -> PathBuf {
-    static BUILT: Mutex<Vec<(Option<String>, PathBuf)>> = Mutex::new(Vec::new());
+    built(bin, false)
+}
+
+/// [`firmware`] with the board capacities (the feature `compact`, the SKR 2 image's).
+pub fn compact_firmware(bin: Option<&str>) -> PathBuf {
+    built(bin, true)
+}
+
+fn built(bin: Option<&str>, compact: bool) -> PathBuf {
+    type Built = Vec<((Option<String>, bool), PathBuf)>;
+    static BUILT: Mutex<Built> = Mutex::new(Vec::new());
     let mut built = BUILT.lock().unwrap_or_else(|p| p.into_inner());
-    let key = bin.map(str::to_string);
+    let key = (bin.map(str::to_string), compact);
     if let Some((_, p)) = built.iter().find(|(k, _)| *k == key) {
         return p.clone();
     }
     let ws = workspace();
-    let target_dir = ws.join("target/firmware");
+    let target_dir = ws.join(if compact {
+        "target/firmware-compact"
+    } else {
+        "target/firmware"
+    });
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(&ws)
         .args(["build", "-p", "hollowpath-qemu"]);
+    if compact {
+        cmd.args(["--features", "compact"]);
+    }
     if let Some(b) = bin {
         cmd.args(["--bin", b]);
     }
