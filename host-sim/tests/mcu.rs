@@ -36,33 +36,7 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
     // vertex for vertex, and each phase's instruction count is reported.
     for (name, text) in host_sim::REFERENCE_SLICES {
         let slice = host_sim::slice_file::parse(text).unwrap().slice;
-        let planner = host_sim::plan(&slice).unwrap();
-        let plan = planner.last_plan();
-        let expect = format!(
-            "slice {name} mcls {} bisectors {} branch_points {} digest {:016x}",
-            plan.mcls.len(),
-            plan.bisectors().len(),
-            plan.cells.branch_points.len(),
-            plan.digest()
-        );
-        assert!(out.lines().any(|l| l == expect), "no `{expect}` in:\n{out}");
-        let mut zigzag = hollowpath::toolpath::DigestSink::new();
-        hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
-        let mut offset = hollowpath::toolpath::DigestSink::new();
-        let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
-        let mut grid = Box::new(hollowpath::field::GridMemory::new());
-        work.build(&slice, plan, &mut grid, &mut offset).unwrap();
-        for (k, sink) in [zigzag, offset].iter().enumerate() {
-            let expect = format!(
-                "layer {name} {k} vertices {} digest {:016x}",
-                sink.len(),
-                sink.digest()
-            );
-            assert!(
-                out.lines().any(|l| l.starts_with(&expect)),
-                "no `{expect}` in:\n{out}"
-            );
-        }
+        assert_host_plan_and_layers(&out, name, &slice);
         for phase in [
             "validate",
             "plan",
@@ -150,6 +124,38 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
         assert!(
             out.lines().any(|l| l.starts_with(&line)),
             "no {line} in:\n{out}"
+        );
+    }
+}
+
+/// The firmware's output `out` has the host's plan of `slice` (its `slice NAME ...` line) and
+/// both its layers (`layer NAME K vertices N digest D`), streamed on the MCU vertex for vertex.
+fn assert_host_plan_and_layers(out: &str, name: &str, slice: &hollowpath::Slice) {
+    let planner = host_sim::plan(slice).unwrap();
+    let plan = planner.last_plan();
+    let expect = format!(
+        "slice {name} mcls {} bisectors {} branch_points {} digest {:016x}",
+        plan.mcls.len(),
+        plan.bisectors().len(),
+        plan.cells.branch_points.len(),
+        plan.digest()
+    );
+    assert!(out.lines().any(|l| l == expect), "no `{expect}` in:\n{out}");
+    let mut zigzag = hollowpath::toolpath::DigestSink::new();
+    hollowpath::toolpath::zigzag::zigzag(slice, plan, &mut zigzag).unwrap();
+    let mut offset = hollowpath::toolpath::DigestSink::new();
+    let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
+    let mut grid = Box::new(hollowpath::field::GridMemory::new());
+    work.build(slice, plan, &mut grid, &mut offset).unwrap();
+    for (k, sink) in [zigzag, offset].iter().enumerate() {
+        let expect = format!(
+            "layer {name} {k} vertices {} digest {:016x}",
+            sink.len(),
+            sink.digest()
+        );
+        assert!(
+            out.lines().any(|l| l.starts_with(&expect)),
+            "no `{expect}` in:\n{out}"
         );
     }
 }
@@ -405,33 +411,7 @@ fn the_board_capacities_plan_like_the_host_within_the_skr2_stack() {
         let slice = host_sim::slice_file::parse(&json.to_string())
             .unwrap()
             .slice;
-        let planner = host_sim::plan(&slice).unwrap();
-        let plan = planner.last_plan();
-        let expect = format!(
-            "slice {name} mcls {} bisectors {} branch_points {} digest {:016x}",
-            plan.mcls.len(),
-            plan.bisectors().len(),
-            plan.cells.branch_points.len(),
-            plan.digest()
-        );
-        assert!(out.lines().any(|l| l == expect), "no `{expect}` in:\n{out}");
-        let mut zigzag = hollowpath::toolpath::DigestSink::new();
-        hollowpath::toolpath::zigzag::zigzag(&slice, plan, &mut zigzag).unwrap();
-        let mut offset = hollowpath::toolpath::DigestSink::new();
-        let mut work = Box::new(hollowpath::toolpath::offset::OffsetSpiral::new());
-        let mut grid = Box::new(hollowpath::field::GridMemory::new());
-        work.build(&slice, plan, &mut grid, &mut offset).unwrap();
-        for (k, sink) in [zigzag, offset].iter().enumerate() {
-            let expect = format!(
-                "layer {name} {k} vertices {} digest {:016x}",
-                sink.len(),
-                sink.digest()
-            );
-            assert!(
-                out.lines().any(|l| l.starts_with(&expect)),
-                "no `{expect}` in:\n{out}"
-            );
-        }
+        assert_host_plan_and_layers(&out, name, &slice);
     }
     let ram = out
         .lines()
