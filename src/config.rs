@@ -18,10 +18,11 @@
 //!
 //! The cargo feature `compact` (the SKR 2 image, `boards/skr2`, enables it) selects board
 //! capacities: 4 hollow features of up to 192 vertices, 5 120 grid nodes, 192 MCL halves of
-//! 12 points on average, 2 560 offset-spiral contour points. The `Planner` is then 75 KiB,
-//! the offset spiral 29 KiB, a `Slice` 13 KiB, the link firmware's whole application 116
-//! KiB: with the link's session, the step side and a 32 KiB stack the image takes 180 KiB of
-//! the STM32F407's 192 KiB (`host-sim/tests/mcu.rs` reads it from the ELF). That holds the
+//! 12 points on average, 2 560 offset-spiral contour points, streamlines of 512 points. The
+//! `Planner` is then 71 KiB, the offset spiral 29 KiB, a `Slice` 13 KiB, the link firmware's
+//! whole application 112 KiB: with the link's session, the step side and a 40 KiB stack the
+//! image takes 184 KiB of the STM32F407's 192 KiB (`host-sim/tests/mcu.rs` reads it from the
+//! ELF). That holds the
 //! reference slices at 1.0 mm roads (the same shapes 10-14 mm across at 0.4 mm roads), and
 //! refuses larger slices with the capacity error naming what to change; where both builds
 //! accept a slice the plans are the same bits. Until planning runs cell by cell, that is
@@ -145,7 +146,7 @@ pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 /// Most MCLs in a plan.
 pub const MAX_MCLS: usize = by_build(8_192, 512, 160);
 /// Raw streamline points before simplification.
-pub const TRACE_POINTS: usize = by_build(4_096, 1_024, 1_024);
+pub const TRACE_POINTS: usize = by_build(4_096, 1_024, 512);
 /// How often the MCL density may be doubled where MCLs diverge.
 pub const MAX_REFINE_DEPTH: u32 = 3;
 

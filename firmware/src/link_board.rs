@@ -10,9 +10,9 @@ use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::config::CHANNELS;
-use hollowpath::motion::{Board, PrinterConfig};
+use hollowpath::motion::{Pins, PrinterConfig};
 
-// `LinkBoard::parked` names one valve per channel.
+// `parked` names one valve per channel.
 const _: () = assert!(CHANNELS == 4);
 
 /// The valve outputs' duties (full scale [`MAX_DUTY`]).
@@ -100,60 +100,30 @@ impl SetDutyCycle for Valve {
 }
 
 /// The board (the module's essay).
-pub struct LinkBoard {
-    pub step: [Out; 3],
-    dir: [Out; 3],
-    endstop: [In; 3],
-    estop: In,
-    valve: [Valve; CHANNELS],
-}
+pub type LinkBoard = Pins<Out, In, Valve>;
 
-impl LinkBoard {
-    /// Every output low, every input low: the board in its static until [`new`](Self::new)
-    /// replaces it at boot (the link firmware's; the bench firmware builds its boards at run
-    /// time).
-    #[allow(dead_code)]
-    pub const fn parked() -> LinkBoard {
-        LinkBoard {
-            step: [Out::LOW, Out::LOW, Out::LOW],
-            dir: [Out::LOW, Out::LOW, Out::LOW],
-            endstop: [In(false), In(false), In(false)],
-            estop: In(false),
-            valve: [Valve(0), Valve(1), Valve(2), Valve(3)],
-        }
-    }
-
-    /// Pins for the default printer's polarities (endstops active high, the emergency stop
-    /// active high): endstops hit, emergency stop released.
-    pub fn new() -> LinkBoard {
-        let cfg = PrinterConfig::default();
-        LinkBoard {
-            step: [Out::LOW, Out::LOW, Out::LOW],
-            dir: [Out::LOW, Out::LOW, Out::LOW],
-            endstop: [0, 1, 2].map(|a| In(cfg.axes[a].endstop.is_none_or(|e| e.active_high))),
-            estop: In(!cfg.estop_active_high),
-            valve: [0, 1, 2, 3].map(Valve),
-        }
+/// Every output low, every input low: the board in its static until [`new`] replaces it at
+/// boot (the link firmware's; the bench firmware builds its boards at run time).
+#[allow(dead_code)]
+pub const fn parked() -> LinkBoard {
+    Pins {
+        step: [Out::LOW, Out::LOW, Out::LOW],
+        dir: [Out::LOW, Out::LOW, Out::LOW],
+        endstop: [In(false), In(false), In(false)],
+        estop: In(false),
+        valve: [Valve(0), Valve(1), Valve(2), Valve(3)],
     }
 }
 
-impl Board for LinkBoard {
-    type Out = Out;
-    type In = In;
-    type Pwm = Valve;
-    fn step(&mut self, axis: usize) -> &mut Out {
-        &mut self.step[axis]
-    }
-    fn dir(&mut self, axis: usize) -> &mut Out {
-        &mut self.dir[axis]
-    }
-    fn endstop(&mut self, axis: usize) -> &mut In {
-        &mut self.endstop[axis]
-    }
-    fn estop(&mut self) -> &mut In {
-        &mut self.estop
-    }
-    fn valve(&mut self, channel: usize) -> &mut Valve {
-        &mut self.valve[channel]
+/// Pins for the default printer's polarities (endstops active high, the emergency stop
+/// active high): endstops hit, emergency stop released.
+pub fn new() -> LinkBoard {
+    let cfg = PrinterConfig::default();
+    Pins {
+        step: [Out::LOW, Out::LOW, Out::LOW],
+        dir: [Out::LOW, Out::LOW, Out::LOW],
+        endstop: [0, 1, 2].map(|a| In(cfg.axes[a].endstop.is_none_or(|e| e.active_high))),
+        estop: In(!cfg.estop_active_high),
+        valve: [0, 1, 2, 3].map(Valve),
     }
 }

@@ -189,7 +189,7 @@ fn bench_motion(r: &slice_data::RefSlice, store: &SliceStore, planner: &Planner)
     let z = cfg.layer_height;
     let machine =
         MACHINE.init(hollowpath::motion::Machine::new(cfg).unwrap_or_else(|e| fail("printer", e)));
-    let mut board = link_board::LinkBoard::new();
+    let mut board = link_board::new();
     let mut feed = motion_bench::Feed::new(machine, &mut board, z, ticks);
     feed.home();
     let homed = feed.figures;

@@ -60,7 +60,8 @@ fn simulated_slice(slice: &str, layers: &str, printer: &Path) -> Value {
     {
         return v.clone();
     }
-    let out = out_dir(&format!("sim{layers}-{slice}"));
+    let name = Path::new(slice).file_name().unwrap().to_string_lossy();
+    let out = out_dir(&format!("sim{layers}-{name}"));
     let sim = Command::new(env!("CARGO_BIN_EXE_hollowpath"))
         .arg("simulate")
         .arg(data(slice))
@@ -310,6 +311,47 @@ fn every_reference_slice_prints_on_the_firmware_as_simulate_computes() {
         assert_same_telemetry(&got, &simulated_slice(slice, "1", &printer), 1);
     }
     drop(q);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The link firmware with the board capacities (`compact`: the SKR 2 image's application)
+/// prints a slice they hold, four_holes at 2.5 times its road width (1.0 mm), two layers,
+/// with simulate's telemetry; and the painted stack's peak over the job (receiving,
+/// planning, preparing the spiral, printing, the interrupts on top) fits the SKR 2's stack
+/// region (the top-level `memory.x`), which the board itself cannot report here.
+#[test]
+fn the_board_capacities_print_within_the_skr2_stack() {
+    if !qemu::available("link firmware test, board capacities") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::compact_firmware(Some("link"));
+    let out = out_dir("compact");
+    let mut json: Value =
+        serde_json::from_str(&std::fs::read_to_string(data("four_holes.json")).unwrap()).unwrap();
+    let w = json["settings"]["road_width"].as_f64().unwrap();
+    json["settings"]["road_width"] = (w * 2.5).into();
+    let slice = out.join("four_holes_1mm.json");
+    std::fs::write(&slice, json.to_string()).unwrap();
+    let slice = slice.to_str().unwrap();
+    let printer = data("ci_printer.json");
+    let port = free_port();
+    let q = Qemu::start(&elf, Serial::Tcp(port), Clock::JumpIdle);
+    let (got, _, wall) = print_slice_ok(&tcp(port), slice, &printer, "2", &out);
+    let line = q
+        .wait_line(0, "job:", Duration::from_secs(10))
+        .unwrap_or_else(|| panic!("no job line from the firmware:\n{}", q.stdout()));
+    let (statics, stack) = ram_figures(&line);
+    drop(q);
+    let room = qemu::board_region("STACK");
+    println!(
+        "board capacities: {wall:.1} s wall for 2 layers of four_holes at 1.0 mm; ram static {statics} stack {stack} (the SKR 2's stack region {room})"
+    );
+    assert_same_telemetry(&got, &simulated_slice(slice, "2", &printer), 2);
+    assert!(
+        stack > 1024 && stack <= room,
+        "the stack's peak {stack} is over the SKR 2's stack region {room}: {line}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 

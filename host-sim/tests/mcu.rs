@@ -369,22 +369,6 @@ fn failing_firmware(bin: &str, what: &str) -> Option<String> {
     Some(out)
 }
 
-/// A region's length in the top-level `memory.x` (the SKR 2's), bytes: the line
-/// `NAME : ORIGIN = .., LENGTH = NK` (or `NK - MK`).
-fn board_region(name: &str) -> usize {
-    let memory = std::fs::read_to_string(qemu::workspace().join("memory.x")).unwrap();
-    let line = memory
-        .lines()
-        .find(|l| l.trim_start().starts_with(name) && l.contains("LENGTH"))
-        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
-    let length = line.split("LENGTH =").nth(1).unwrap();
-    length
-        .split('-')
-        .map(|t| t.trim().trim_end_matches('K').parse::<usize>().unwrap() * 1024)
-        .reduce(|a, b| a - b)
-        .unwrap()
-}
-
 /// The board capacities (`hollowpath/compact`, the SKR 2 image's) run the same application
 /// code under QEMU: the four reference slices at 2.5 times their road width (1.0 mm, the
 /// shapes of slices 0.4 of their size at 0.4 mm) plan and lay bit-identically to the host,
@@ -418,7 +402,7 @@ fn the_board_capacities_plan_like_the_host_within_the_skr2_stack() {
         .find_map(|l| l.strip_prefix("ram static "))
         .unwrap_or_else(|| panic!("no ram line in:\n{out}"));
     let peak: usize = ram.split(" stack ").nth(1).unwrap().trim().parse().unwrap();
-    let room = board_region("STACK");
+    let room = qemu::board_region("STACK");
     println!("compact: stack peak {peak} of the SKR 2's {room}");
     assert!(
         peak > 0 && peak <= room,
@@ -463,12 +447,12 @@ fn the_skr2_image_fits_the_stm32f407() {
         .sum();
     let sram = size(".data") + size(".bss") + size(".uninit");
     let ccm = size(".ccm");
-    let (stack, guard) = (board_region("STACK"), board_region("GUARD"));
+    let (stack, guard) = (qemu::board_region("STACK"), qemu::board_region("GUARD"));
     println!(
         "skr2: flash {flash} of {}, sram {sram} of {} (data {}, bss {}, uninit {}), ccm {} \
          of {}: statics {ccm}, stack {stack}, guard {guard}; RAM in all {} of {}",
-        board_region("FLASH"),
-        board_region("RAM"),
+        qemu::board_region("FLASH"),
+        qemu::board_region("RAM"),
         size(".data"),
         size(".bss"),
         size(".uninit"),
@@ -478,8 +462,8 @@ fn the_skr2_image_fits_the_stm32f407() {
         192 * 1024
     );
     assert!(size(".text") > 0 && size(".bss") > 0, "{sections:?}");
-    assert!(flash <= board_region("FLASH"), "flash {flash}");
-    assert!(sram <= board_region("RAM"), "sram {sram}");
-    assert!(ccm <= board_region("CCMRAM"), "ccm {ccm}");
+    assert!(flash <= qemu::board_region("FLASH"), "flash {flash}");
+    assert!(sram <= qemu::board_region("RAM"), "sram {sram}");
+    assert!(ccm <= qemu::board_region("CCMRAM"), "ccm {ccm}");
     assert!(sram + ccm + stack + guard <= 192 * 1024);
 }

@@ -121,6 +121,8 @@ pub use stepper::{Late, Segment, SegmentGen, StepTimer, Stepper, Ticks};
 use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal::pwm::SetDutyCycle;
 
+use crate::config::CHANNELS;
+
 /// The printer's pins, as the motion code drives them: the board's HAL pins (type-erased, one
 /// type per kind), or a host's virtual pins that record every edge.
 pub trait Board {
@@ -140,6 +142,43 @@ pub trait Board {
     fn estop(&mut self) -> &mut Self::In;
     /// The valve output of channel `channel`.
     fn valve(&mut self, channel: usize) -> &mut Self::Pwm;
+}
+
+/// A board as a firmware has one: its pins in arrays, one type per kind (the HAL's pins, or
+/// the board's own thin ones). A board crate builds one of these (a `const` one, where its
+/// pin types allow, so the step side can be a static) instead of writing out [`Board`].
+pub struct Pins<O, I, P> {
+    /// Step outputs, X, Y, Z.
+    pub step: [O; 3],
+    /// Direction outputs, X, Y, Z.
+    pub dir: [O; 3],
+    /// Endstop inputs, X, Y, Z.
+    pub endstop: [I; 3],
+    /// The emergency-stop input.
+    pub estop: I,
+    /// Valve outputs, one per material channel.
+    pub valve: [P; CHANNELS],
+}
+
+impl<O: OutputPin, I: InputPin, P: SetDutyCycle> Board for Pins<O, I, P> {
+    type Out = O;
+    type In = I;
+    type Pwm = P;
+    fn step(&mut self, axis: usize) -> &mut O {
+        &mut self.step[axis]
+    }
+    fn dir(&mut self, axis: usize) -> &mut O {
+        &mut self.dir[axis]
+    }
+    fn endstop(&mut self, axis: usize) -> &mut I {
+        &mut self.endstop[axis]
+    }
+    fn estop(&mut self) -> &mut I {
+        &mut self.estop
+    }
+    fn valve(&mut self, channel: usize) -> &mut P {
+        &mut self.valve[channel]
+    }
 }
 
 /// A board lent out (the host's virtual printer lends its board to a job's step side).

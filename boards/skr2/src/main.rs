@@ -13,11 +13,12 @@
 //! the link's (USART1, masked by BASEPRI while the application holds the session); the
 //! main loop plans, builds each layer and queues its moves, and sleeps (`wfi`) when idle.
 //!
-//! Memory (the top-level `memory.x`): the application in SRAM, the link's session and the
-//! step side in CCM (`.ccm`, copied from flash at reset by [`__pre_init`]), the stack in CCM
-//! above a 4 KiB MPU guard (`firmware/src/stack.rs`, shared with QEMU). A panic or a
+//! Memory (the top-level `memory.x`): the application and the step side in SRAM, the link's
+//! session and receive ring in CCM (`.ccm`, copied from flash at reset by `__pre_init`), the
+//! stack in CCM above a 4 KiB MPU guard (`firmware/src/stack.rs`, shared with QEMU). A panic or a
 //! HardFault (a stack overflow included) shuts the valves, disables the drivers and opens
-//! the power gate first ([`pins::shut_down`]), then logs and halts.
+//! the power gate first ([`pins::shut_down`]), then logs and halts. The independent watchdog
+//! ([`watchdog`], fed by TIM5's heartbeat) resets a core that stopped running interrupts.
 //!
 //! The image is for the STM32F407VG of the first SKR 2 boards; later boards carry an
 //! STM32F429VG, whose memory map (192 KiB SRAM, 64 KiB CCM, same bootloader offset) and
@@ -25,30 +26,32 @@
 #![no_std]
 #![no_main]
 
-use core::cell::RefCell;
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::Ordering;
 
 use cortex_m_rt::entry;
-use critical_section::Mutex;
 use defmt_rtt as _;
-use hollowpath::app::io::ticks_at;
-use hollowpath::app::{App, Io, Session, Shared, Stepping, Steps};
-use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
+use hollowpath::app::{App, Io, Session, Shared, Steps};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
-use hollowpath::link::message::Version;
-use hollowpath::motion::stepper::before;
 use static_cell::ConstStaticCell;
 use stm32f4xx_hal::pac::{self, interrupt, Interrupt, NVIC};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::serial::{self, RxListen};
 
+use controller::{
+    sleep_unless, FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY,
+    STEP_PRIORITY,
+};
+
+#[path = "../../../firmware/src/controller.rs"]
+mod controller;
 mod pins;
 #[path = "../../../firmware/src/stack.rs"]
 mod stack;
 mod timer;
 mod uart;
+mod watchdog;
 
 /// The link's baud rate on USART1: the host's `hollowpath print --port` line (115200 8N1).
 const BAUD: u32 = 115_200;
@@ -60,73 +63,27 @@ const LINK_CONFIG: LinkConfig = LinkConfig {
     watchdog_us: 3_000_000,
 };
 
-const FIRMWARE: Version = Version {
-    major: 0,
-    minor: 1,
-    patch: 0,
-};
-
-const POINTS: usize = (MAX_HOLES + 1) * MAX_VERTICES;
-type FwApp = App<MAX_HOLES, POINTS, 4>;
-type FwSession = Session<MAX_HOLES, POINTS, 4>;
-
 /// The application (planner, offset spiral, slice), in SRAM.
 static APP: ConstStaticCell<FwApp> = ConstStaticCell::new(App::new());
 
-/// The link side, shared by the main loop and USART1's interrupt, in CCM.
+/// The link side (controller, slice assembler, events, outbox), shared by the main loop and
+/// USART1's interrupt (priority LINK_PRIORITY, the only interrupt that touches it), in CCM.
 #[link_section = ".ccm"]
-static LINK: Link = Link(RefCell::new(Session::new(Controller::new(
-    LINK_CONFIG,
-    FIRMWARE,
-))));
-
-/// NVIC priorities (the upper four bits count; lower preempts).
-const STEP_PRIORITY: u8 = 0x00;
-const LINK_PRIORITY: u8 = 0x80;
-
-/// The session behind the link's priority (as on QEMU).
-struct Link(RefCell<FwSession>);
-
-// SAFETY: the session is touched only by the main loop and USART1's interrupt (priority
-// LINK_PRIORITY), and only inside `Link::lock`, which raises BASEPRI to LINK_PRIORITY first:
-// the two never run inside it at once, and the step interrupt never touches it.
-unsafe impl Sync for Link {}
-
-impl Shared<FwSession> for Link {
-    fn lock<R>(&self, f: impl FnOnce(&mut FwSession) -> R) -> R {
-        let old = cortex_m::register::basepri::read();
-        cortex_m::register::basepri_max::write(LINK_PRIORITY);
-        let r = f(&mut self.0.borrow_mut());
-        // SAFETY: restores the mask as it was on entry.
-        unsafe { cortex_m::register::basepri::write(old) };
-        r
-    }
-}
+static LINK: Masked<FwSession, LINK_PRIORITY> =
+    Masked::new(Session::new(Controller::new(LINK_CONFIG, FIRMWARE)));
 
 /// The step side (machine, pins, the layer's queued moves), shared by the main loop and the
-/// step interrupt, in CCM.
-#[link_section = ".ccm"]
-static MOTION: Motion = Motion(Mutex::new(RefCell::new(Stepping::new(
-    pins::Skr2Board::new(),
-))));
+/// step interrupt (TIM5).
+static MOTION: StepSide<pins::Skr2Board, Skr2Io> = StepSide::new(pins::board());
 
-struct Motion(Mutex<RefCell<Stepping<pins::Skr2Board>>>);
-
-impl Steps for Motion {
-    type Board = pins::Skr2Board;
-    fn lock<R>(&self, f: impl FnOnce(&mut Stepping<Self::Board>) -> R) -> R {
-        critical_section::with(|cs| f(&mut self.0.borrow_ref_mut(cs)))
-    }
-    fn kick(&self) {
+impl Platform for Skr2Io {
+    fn kick() {
         timer::step_now();
     }
-    fn wait<I: Io>(&self, _io: &mut I) {
-        sleep_unless(|| link_pending() || MOTION.lock(|s| s.deadline().is_none()));
+    fn link_pending() -> bool {
+        link_pending()
     }
 }
-
-/// The latest the step interrupt ran an alarm after its deadline, machine ticks.
-static LATEST: AtomicU32 = AtomicU32::new(0);
 
 #[interrupt]
 fn TIM5() {
@@ -134,25 +91,10 @@ fn TIM5() {
         return;
     }
     MOTION.lock(|s| {
-        let Some(hz) = s.tick_hz() else {
-            return;
-        };
-        let now = ticks_at(timer::now_us(), hz);
-        let moving = s.machine().is_some_and(|m| !m.stepper().is_idle());
-        if let Some(d) = s.deadline().filter(|&d| moving && !before(now, d)) {
-            LATEST.fetch_max(now.wrapping_sub(d), Ordering::Relaxed);
-        }
-        if let Some(d) = s.run_due(now, 64) {
-            // The deadline in microseconds on the counter: from the clock after the alarms ran.
-            let now_us = timer::now_us();
-            let now = ticks_at(now_us, hz);
-            let wait = if before(now, d) {
-                d.wrapping_sub(now)
-            } else {
-                0
-            };
+        if let Some((wait, hz)) = controller::run_step_alarms(s, timer::now_us) {
+            // The deadline on the microsecond counter, from the clock after the alarms ran.
             let us = (wait as u64 * 1_000_000).div_ceil(hz as u64);
-            timer::step_at(now_us.wrapping_add(us.min(u32::MAX as u64 / 2)) as u32);
+            timer::step_at(timer::now_us().wrapping_add(us.min(u32::MAX as u64 / 2)) as u32);
         }
     });
 }
@@ -162,19 +104,6 @@ fn USART1() {
     uart::on_rx();
     // Serve the link here too: the application may be planning for seconds.
     LINK.lock(|s| s.serve(&mut Skr2Io));
-}
-
-/// Sleeps (`wfi`) until the next interrupt unless `ready()`; whether it was ready (the check
-/// runs masked, so an interrupt between it and the `wfi` still ends the sleep).
-fn sleep_unless(ready: impl Fn() -> bool) -> bool {
-    cortex_m::interrupt::disable();
-    let r = ready();
-    if !r {
-        cortex_m::asm::wfi();
-    }
-    // SAFETY: unmasks what `disable` masked above; no critical section spans this function.
-    unsafe { cortex_m::interrupt::enable() };
-    r
 }
 
 fn link_pending() -> bool {
@@ -306,6 +235,7 @@ fn main() -> ! {
     rx.listen();
 
     timer::start(rcc.clocks.timclk1().raw());
+    watchdog::start();
     // SAFETY: the NVIC priorities are set before the interrupts are unmasked; both handlers
     // only touch state behind their locks (`Link`, `Motion`) or atomics.
     unsafe {
@@ -339,7 +269,7 @@ fn main() -> ! {
                     c.steps[0],
                     c.steps[1],
                     c.steps[2],
-                    LATEST.load(Ordering::Relaxed),
+                    controller::LATEST.load(Ordering::Relaxed),
                     uart::LOST.load(Ordering::Relaxed),
                     stack::highest()
                 );
@@ -356,10 +286,14 @@ fn halt(why: &str) -> ! {
     stop()
 }
 
+/// Halts with interrupts off, the watchdog fed (a stopped board stays stopped, its log
+/// readable, rather than rebooting into one ready to move).
 fn stop() -> ! {
     cortex_m::interrupt::disable();
     loop {
-        cortex_m::asm::wfi();
+        watchdog::feed();
+        // About 0.1 s at 168 MHz.
+        cortex_m::asm::delay(16_800_000);
     }
 }
 

@@ -25,7 +25,7 @@ use core::sync::atomic::{AtomicU16, Ordering};
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{self, SetDutyCycle};
 use hollowpath::config::CHANNELS;
-use hollowpath::motion::Board;
+use hollowpath::motion::Pins;
 
 /// A GPIO port's registers (RM0090 8.4): its base address.
 #[derive(Clone, Copy)]
@@ -156,44 +156,15 @@ pub fn shut_down() {
 }
 
 /// The printer's pins.
-pub struct Skr2Board {
-    step: [Out; 3],
-    dir: [Out; 3],
-    endstop: [In; 3],
-    estop: In,
-    valve: [Valve; CHANNELS],
-}
+pub type Skr2Board = Pins<Out, In, Valve>;
 
-impl Skr2Board {
-    /// The board (its pins are configured at boot, before the step side runs).
-    pub const fn new() -> Skr2Board {
-        Skr2Board {
-            step: [Out(PE, 2), Out(PD, 5), Out(PA, 15)],
-            dir: [Out(PE, 1), Out(PD, 4), Out(PA, 8)],
-            endstop: [In(PC, 1), In(PC, 3), In(PC, 0)],
-            estop: In(PC, 2),
-            valve: [Valve(0), Valve(1), Valve(2), Valve(3)],
-        }
-    }
-}
-
-impl Board for Skr2Board {
-    type Out = Out;
-    type In = In;
-    type Pwm = Valve;
-    fn step(&mut self, axis: usize) -> &mut Out {
-        &mut self.step[axis]
-    }
-    fn dir(&mut self, axis: usize) -> &mut Out {
-        &mut self.dir[axis]
-    }
-    fn endstop(&mut self, axis: usize) -> &mut In {
-        &mut self.endstop[axis]
-    }
-    fn estop(&mut self) -> &mut In {
-        &mut self.estop
-    }
-    fn valve(&mut self, channel: usize) -> &mut Valve {
-        &mut self.valve[channel]
+/// The board (its pins are configured at boot, before the step side runs).
+pub const fn board() -> Skr2Board {
+    Pins {
+        step: [Out(PE, 2), Out(PD, 5), Out(PA, 15)],
+        dir: [Out(PE, 1), Out(PD, 4), Out(PA, 8)],
+        endstop: [In(PC, 1), In(PC, 3), In(PC, 0)],
+        estop: In(PC, 2),
+        valve: [Valve(0), Valve(1), Valve(2), Valve(3)],
     }
 }

@@ -1,11 +1,12 @@
 //! The clock and the two alarms: TIM5, a 32-bit timer counting microseconds, free running.
 //! Its overflows (every 71.6 minutes) are counted into a 64-bit clock ([`now_us`]); compare
-//! channel 1 is the step alarm ([`step_at`]), channel 2 the link's wake-up ([`wake_at`]).
-//! One interrupt (TIM5, the step priority) serves all three.
+//! channel 1 is the step alarm ([`step_at`]), channel 2 the link's wake-up ([`wake_at`]),
+//! channel 3 a heartbeat every [`HEARTBEAT_US`] that feeds the watchdog. One interrupt (TIM5,
+//! the step priority) serves all four.
 //!
 //! Registers (RM0090 18.4): CR1 0x00 (bit 0 CEN), DIER 0x0C (bit 0 UIE, 1 CC1IE, 2 CC2IE),
-//! SR 0x10 (bit 0 UIF, 1 CC1IF, 2 CC2IF; write 0 to clear), EGR 0x14 (bit 0 UG), CNT 0x24,
-//! PSC 0x28, ARR 0x2C, CCR1 0x34, CCR2 0x38. The timer's clock is enabled in RCC APB1ENR
+//! SR 0x10 (bit 0 UIF, 1 CC1IF, 2 CC2IF, 3 CC3IF; write 0 to clear), EGR 0x14 (bit 0 UG),
+//! CNT 0x24, PSC 0x28, ARR 0x2C, CCR1 0x34, CCR2 0x38, CCR3 0x3C (DIER's bit 3 CC3IE). The timer's clock is enabled in RCC APB1ENR
 //! (0x4002_3840, bit 3).
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -22,11 +23,17 @@ const PSC: usize = TIM5 + 0x28;
 const ARR: usize = TIM5 + 0x2C;
 const CCR1: usize = TIM5 + 0x34;
 const CCR2: usize = TIM5 + 0x38;
+const CCR3: usize = TIM5 + 0x3C;
 const RCC_APB1ENR: usize = 0x4002_3840;
 
 const UIF: u32 = 1 << 0;
 const CC1: u32 = 1 << 1;
 const CC2: u32 = 1 << 2;
+const CC3: u32 = 1 << 3;
+
+/// The watchdog's heartbeat period (well inside its timeout).
+pub const HEARTBEAT_US: u32 = 250_000;
+const _: () = assert!(HEARTBEAT_US / 1000 * 4 <= crate::watchdog::TIMEOUT_MS);
 
 fn read(reg: usize) -> u32 {
     // SAFETY: `reg` is one of TIM5's registers above (aligned, mapped); reads have no side
@@ -46,7 +53,7 @@ static WRAPS: AtomicU32 = AtomicU32::new(0);
 static STEP_NOW: AtomicBool = AtomicBool::new(false);
 
 /// Starts the clock at 1 MHz from the timer's input clock `timclk_hz` (APB1's timers:
-/// 84 MHz at 168 MHz system clock), its overflow interrupt on.
+/// 84 MHz at 168 MHz system clock), its overflow and heartbeat interrupts on.
 pub fn start(timclk_hz: u32) {
     write(RCC_APB1ENR, read(RCC_APB1ENR) | 1 << 3);
     cortex_m::asm::dsb();
@@ -56,7 +63,8 @@ pub fn start(timclk_hz: u32) {
     // Load the prescaler now (an update event), then clear the flag it raised.
     write(EGR, 1);
     write(SR, 0);
-    write(DIER, UIF);
+    write(CCR3, HEARTBEAT_US);
+    write(DIER, UIF | CC3);
     write(CR1, 1);
 }
 
@@ -112,18 +120,23 @@ pub fn cancel_wake() {
     write(DIER, read(DIER) & !CC2);
 }
 
-/// The interrupt's work: counts an overflow, ends a wake-up, and says whether the step
-/// alarm is due (its compare matched, or [`step_now`] asked), disarming it.
+/// The interrupt's work: counts an overflow, ends a wake-up, feeds the watchdog on a
+/// heartbeat, and says whether the step alarm is due (its compare matched, or [`step_now`]
+/// asked), disarming it.
 pub fn on_interrupt() -> bool {
     let sr = read(SR);
     let dier = read(DIER);
     // Clear only the flags seen (write 0 to clear, 1 leaves a flag as it is).
-    write(SR, !(sr & (UIF | CC1 | CC2)));
+    write(SR, !(sr & (UIF | CC1 | CC2 | CC3)));
     if sr & UIF != 0 {
         WRAPS.fetch_add(1, Ordering::Relaxed);
     }
     if sr & CC2 != 0 {
         write(DIER, read(DIER) & !CC2);
+    }
+    if sr & CC3 != 0 {
+        write(CCR3, read(CCR3).wrapping_add(HEARTBEAT_US));
+        crate::watchdog::feed();
     }
     let due = (sr & CC1 != 0 && dier & CC1 != 0) | STEP_NOW.swap(false, Ordering::Acquire);
     if due {

@@ -23,6 +23,7 @@ fn read(reg: usize) -> u32 {
 /// Bytes received and not read yet: a power of two, two frames of the link at least.
 const RING: usize = 1024;
 const _: () = assert!(RING.is_power_of_two());
+#[link_section = ".ccm"]
 static RX: [AtomicU8; RING] = [const { AtomicU8::new(0) }; RING];
 static HEAD: AtomicUsize = AtomicUsize::new(0);
 static TAIL: AtomicUsize = AtomicUsize::new(0);

@@ -23,7 +23,7 @@ mod stack;
 
 #[entry]
 fn main() -> ! {
-    let mut board = link_board::LinkBoard::new();
+    let mut board = link_board::new();
     if board
         .valve(0)
         .set_duty_cycle(link_board::MAX_DUTY / 2)

@@ -28,23 +28,23 @@
 #![no_std]
 #![no_main]
 
-use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
-
-use critical_section::Mutex;
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use hollowpath::app::io::ticks_at;
-use hollowpath::app::{App, Io, Session, Shared, Stepping, Steps};
-use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
+use hollowpath::app::{App, Io, Session, Shared, Steps};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
-use hollowpath::link::message::Version;
-use hollowpath::motion::stepper::before;
 use static_cell::ConstStaticCell;
 
+use controller::{
+    sleep_unless, FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY,
+    STEP_PRIORITY,
+};
+
+#[path = "../controller.rs"]
+mod controller;
 #[path = "../fault.rs"]
 mod fault;
 #[path = "../link_board.rs"]
@@ -69,125 +69,38 @@ const LINK_CONFIG: LinkConfig = LinkConfig {
     watchdog_us: 30_000_000,
 };
 
-const FIRMWARE: Version = Version {
-    major: 0,
-    minor: 1,
-    patch: 0,
-};
-
-const POINTS: usize = (MAX_HOLES + 1) * MAX_VERTICES;
-type FwApp = App<MAX_HOLES, POINTS, 4>;
-type FwSession = Session<MAX_HOLES, POINTS, 4>;
-
 /// The application (planner, offset spiral, machine), in a static.
 static APP: ConstStaticCell<FwApp> = ConstStaticCell::new(App::new());
 
 /// The link side (controller, slice assembler, events, outbox), shared by the
-/// application's loop and the receive interrupt.
-static LINK: Link = Link(RefCell::new(Session::new(Controller::new(
-    LINK_CONFIG,
-    FIRMWARE,
-))));
-
-/// Interrupt priorities (NVIC, lower preempts): the step interrupt above the link's, so
-/// that serving the link (a frame decoded, a reply written to the UART) never delays a
-/// step; timer 0 (a link wake-up) with the link.
-const STEP_PRIORITY: u8 = 0x00;
-const LINK_PRIORITY: u8 = 0x80;
-
-/// The session behind the link's priority: while a call into it runs, BASEPRI masks the
-/// receive interrupt (and everything at its priority), not the step interrupt.
-struct Link(RefCell<FwSession>);
-
-// SAFETY: the session is touched only by the main loop and the receive interrupt (priority
-// LINK_PRIORITY), and only inside `Link::lock`, which raises BASEPRI to LINK_PRIORITY first:
-// the two never run inside it at once, and the step interrupt never touches it.
-unsafe impl Sync for Link {}
-
-impl Shared<FwSession> for Link {
-    fn lock<R>(&self, f: impl FnOnce(&mut FwSession) -> R) -> R {
-        let old = cortex_m::register::basepri::read();
-        // Raising BASEPRI only masks interrupts (never lowers a mask set outside: `_max`).
-        cortex_m::register::basepri_max::write(LINK_PRIORITY);
-        let r = f(&mut self.0.borrow_mut());
-        // SAFETY: restores the mask as it was on entry.
-        unsafe { cortex_m::register::basepri::write(old) };
-        r
-    }
-}
+/// application's loop and the receive interrupt (priority LINK_PRIORITY, the only interrupt
+/// that touches it): BASEPRI masks the receive interrupt while a call into it runs, not the
+/// step interrupt.
+static LINK: Masked<FwSession, LINK_PRIORITY> =
+    Masked::new(Session::new(Controller::new(LINK_CONFIG, FIRMWARE)));
 
 /// The step side (the job's machine, the counting pins, the queue of the layer's moves),
 /// shared by the application's loop and the step interrupt (timer 1).
-static MOTION: Motion = Motion(Mutex::new(RefCell::new(Stepping::new(
-    link_board::LinkBoard::parked(),
-))));
+static MOTION: StepSide<link_board::LinkBoard, Mps2> = StepSide::new(link_board::parked());
 
-/// The step side behind a critical section.
-struct Motion(Mutex<RefCell<Stepping<link_board::LinkBoard>>>);
-
-impl Steps for Motion {
-    type Board = link_board::LinkBoard;
-    fn lock<R>(&self, f: impl FnOnce(&mut Stepping<Self::Board>) -> R) -> R {
-        critical_section::with(|cs| f(&mut self.0.borrow_ref_mut(cs)))
-    }
-    fn kick(&self) {
+impl Platform for Mps2 {
+    fn kick() {
         mps2::pend_step();
     }
-    fn wait<I: Io>(&self, _io: &mut I) {
-        // Until the step interrupt ran (it runs at every step) or a byte came; at once if the
-        // step side is at rest.
-        sleep_unless(|| link_pending() || MOTION.lock(|s| s.deadline().is_none()));
+    fn link_pending() -> bool {
+        link_pending()
     }
 }
 
-/// The step interrupt: runs the alarms that are due (at their own deadlines, however late
-/// this runs) and arms timer 1 for the next one; at rest it arms nothing (the application
-/// kicks it when work arrives).
+/// The step interrupt: runs the alarms that are due and arms timer 1 for the next one.
 fn on_step() {
     mps2::on_step_timer();
     MOTION.lock(|s| {
-        let Some(hz) = s.tick_hz() else {
-            return;
-        };
-        let now = ticks_at(Mps2.now_us(), hz);
-        let moving = s.machine().is_some_and(|m| !m.stepper().is_idle());
-        if let Some(d) = s.deadline().filter(|&d| moving && !before(now, d)) {
-            // How late the interrupt ran an alarm of a moving machine (held off by a
-            // critical section of the main loop's, or by its own last run; a start from
-            // rest is as late as the main loop's top-up before it, and no step waits on it).
-            LATEST.fetch_max(now.wrapping_sub(d), Ordering::Relaxed);
-        }
-        if let Some(d) = s.run_due(now, 64) {
-            // From the clock after the alarms ran (they took time of their own).
-            let now = ticks_at(Mps2.now_us(), hz);
-            let wait = if before(now, d) {
-                d.wrapping_sub(now)
-            } else {
-                0
-            };
+        if let Some((wait, hz)) = controller::run_step_alarms(s, || Mps2.now_us()) {
             let apb = wait as u64 * mps2::CLOCK_HZ as u64 / hz as u64;
             mps2::step_in(apb.min(u32::MAX as u64) as u32);
         }
     });
-}
-
-/// The latest the step interrupt ran an alarm after its deadline, machine ticks (reported
-/// with each job's line).
-static LATEST: AtomicU32 = AtomicU32::new(0);
-
-/// Sleeps (`wfi`) until the next interrupt unless `ready()`; whether it was ready. The
-/// check runs with interrupts masked, so an interrupt that makes it true between the check
-/// and the `wfi` still ends the sleep (a pending interrupt wakes `wfi` even while masked).
-fn sleep_unless(ready: impl Fn() -> bool) -> bool {
-    cortex_m::interrupt::disable();
-    let r = ready();
-    if !r {
-        cortex_m::asm::wfi();
-    }
-    // SAFETY: unmasks what `disable` masked above; no critical section is open across this
-    // function (`ready` opens and closes its own), so nothing relies on them staying masked.
-    unsafe { cortex_m::interrupt::enable() };
-    r
 }
 
 /// Whether the link has events for the application (or bytes not yet decoded).
@@ -288,7 +201,7 @@ fn main() -> ! {
     cp.SYST.enable_counter();
     mps2::init(BAUD, LINK_PRIORITY, STEP_PRIORITY);
     let app = APP.take();
-    MOTION.lock(|s| *s.board() = link_board::LinkBoard::new());
+    MOTION.lock(|s| *s.board() = link_board::new());
     let mut io = Mps2;
     hprintln!(
         "link firmware ready: app {} bytes, uart0 {} baud",
@@ -309,7 +222,7 @@ fn main() -> ! {
                     c.steps[2],
                     link_board::valves_shut(),
                     io.now_us(),
-                    LATEST.load(Ordering::Relaxed),
+                    controller::LATEST.load(Ordering::Relaxed),
                     stack::statics(),
                     stack::highest()
                 );

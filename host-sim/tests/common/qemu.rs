@@ -39,6 +39,22 @@ pub fn lock() -> MutexGuard<'static, ()> {
     LOCK.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// A region's length in the top-level `memory.x` (the SKR 2's), bytes: the line
+/// `NAME : ORIGIN = .., LENGTH = NK` (or `NK - MK`).
+pub fn board_region(name: &str) -> usize {
+    let memory = std::fs::read_to_string(workspace().join("memory.x")).unwrap();
+    let line = memory
+        .lines()
+        .find(|l| l.trim_start().starts_with(name) && l.contains("LENGTH"))
+        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
+    let length = line.split("LENGTH =").nth(1).unwrap();
+    length
+        .split('-')
+        .map(|t| t.trim().trim_end_matches('K').parse::<usize>().unwrap() * 1024)
+        .reduce(|a, b| a - b)
+        .unwrap()
+}
+
 /// Builds a firmware binary of `hollowpath-qemu` (`None`: the default one) for the
 /// Cortex-M4F, release, once per test binary; its ELF.
 pub fn firmware(bin: Option<&str>) -> PathBuf {
