@@ -16,10 +16,17 @@ fn main() {
     // statics.)
     let mem_dir = out.join("memory");
     std::fs::create_dir_all(&mem_dir).unwrap();
-    let memory = std::fs::read_to_string(root.join("firmware/memory.x")).unwrap();
+    // With the board capacities (`compact`), `firmware/memory-compact.x`: the SKR 2's budget.
+    let memory_file = if std::env::var_os("CARGO_FEATURE_COMPACT").is_some() {
+        "firmware/memory-compact.x"
+    } else {
+        "firmware/memory.x"
+    };
+    let memory = std::fs::read_to_string(root.join(memory_file)).unwrap();
     std::fs::write(mem_dir.join("memory-mps2.x"), memory).unwrap();
     println!("cargo:rustc-link-search={}", mem_dir.display());
     println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=memory-compact.x");
     println!("cargo:rerun-if-changed=link-mps2.x");
     // Our own copy of cortex-m-rt's link.x, including `memory-mps2.x`: the linker runs in
     // the workspace root, whose memory.x (the SKR 2 board) it would find before any -L path.
