@@ -466,4 +466,37 @@ fn the_skr2_image_fits_the_stm32f407() {
     assert!(sram <= qemu::board_region("RAM"), "sram {sram}");
     assert!(ccm <= qemu::board_region("CCMRAM"), "ccm {ccm}");
     assert!(sram + ccm + stack + guard <= 192 * 1024);
+
+    // What the bootloader and a probe see: no loadable byte below the image's start (a probe
+    // flashing the ELF would write into the bootloader's sector), and a vector table at the
+    // start whose initial stack pointer is the top of the stack region and whose reset
+    // vector is a Thumb address in the image.
+    let u16_at = |o: usize| u16::from_le_bytes([elf[o], elf[o + 1]]) as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(elf[o..o + 4].try_into().unwrap()) as usize;
+    let flash_start = qemu::board_origin("FLASH");
+    let (phoff, phentsize, phnum) = (u32_at(0x1C), u16_at(0x2A), u16_at(0x2C));
+    let mut vectors = None;
+    for k in 0..phnum {
+        let h = phoff + k * phentsize;
+        let (kind, offset, paddr, filesz) =
+            (u32_at(h), u32_at(h + 4), u32_at(h + 12), u32_at(h + 16));
+        if kind != 1 || filesz == 0 {
+            continue;
+        }
+        assert!(
+            paddr >= flash_start,
+            "a loadable segment at {paddr:#x}, below the image's start {flash_start:#x}"
+        );
+        if paddr == flash_start {
+            vectors = Some(offset);
+        }
+    }
+    let vectors = vectors.expect("no loadable segment at the image's start");
+    let (sp, reset) = (u32_at(vectors), u32_at(vectors + 4));
+    let stack_top = qemu::board_origin("STACK") + stack;
+    assert_eq!(sp, stack_top, "initial stack pointer {sp:#x}");
+    assert!(
+        reset & 1 == 1 && (flash_start..flash_start + qemu::board_region("FLASH")).contains(&reset),
+        "reset vector {reset:#x}"
+    );
 }

@@ -9,9 +9,11 @@
 //! The layers are the QEMU link firmware's (`firmware/src/bin/link.rs`), only the board
 //! differs: the clock and both alarms are TIM5 ([`timer`]), the link is USART1 at
 //! [`BAUD`] ([`uart`]), the pins are [`pins`] (their table), logs go out over RTT (defmt:
-//! nothing blocks without a probe, unlike semihosting). The step interrupt (TIM5) preempts
-//! the link's (USART1, masked by BASEPRI while the application holds the session); the
-//! main loop plans, builds each layer and queues its moves, and sleeps (`wfi`) when idle.
+//! nothing blocks without a probe, unlike semihosting). The step interrupt (TIM5) and
+//! USART1's receive interrupt (which only fills the ring) preempt the link's (PendSV, masked
+//! by BASEPRI while the application holds the session): a frame the link writes never makes
+//! it miss a byte; the main loop plans, builds each layer and queues its moves, and sleeps
+//! (`wfi`) when idle.
 //!
 //! Memory (the top-level `memory.x`): the application and the step side in SRAM, the link's
 //! session and receive ring in CCM (`.ccm`, copied from flash at reset by `__pre_init`), the
@@ -28,7 +30,8 @@
 
 use core::sync::atomic::Ordering;
 
-use cortex_m_rt::entry;
+use cortex_m::peripheral::scb::SystemHandler;
+use cortex_m_rt::{entry, exception};
 use defmt_rtt as _;
 use hollowpath::app::{App, Io, Session, Shared, Steps};
 use hollowpath::link::controller::Controller;
@@ -67,7 +70,7 @@ const LINK_CONFIG: LinkConfig = LinkConfig {
 static APP: ConstStaticCell<FwApp> = ConstStaticCell::new(App::new());
 
 /// The link side (controller, slice assembler, events, outbox), shared by the main loop and
-/// USART1's interrupt (priority LINK_PRIORITY, the only interrupt that touches it), in CCM.
+/// PendSV (priority LINK_PRIORITY, the only interrupt that touches it), in CCM.
 #[link_section = ".ccm"]
 static LINK: Masked<FwSession, LINK_PRIORITY> =
     Masked::new(Session::new(Controller::new(LINK_CONFIG, FIRMWARE)));
@@ -99,10 +102,21 @@ fn TIM5() {
     });
 }
 
+/// USART1's receive interrupt, at the step interrupt's priority: it only moves the byte into
+/// the ring, so that nothing at the link's priority (a frame the link writes byte by byte,
+/// the main loop holding the session) can hold off the next byte past the UART's one-byte
+/// buffer; neither preempts the other, and each is short.
 #[interrupt]
 fn USART1() {
     uart::on_rx();
-    // Serve the link here too: the application may be planning for seconds.
+    cortex_m::peripheral::SCB::set_pendsv();
+}
+
+/// The link served at its own priority (PendSV at LINK_PRIORITY, the only interrupt that
+/// touches the session): acks, replies, the host's messages decoded into events, while the
+/// application plans for seconds.
+#[exception]
+fn PendSV() {
     LINK.lock(|s| s.serve(&mut Skr2Io));
 }
 
@@ -240,7 +254,8 @@ fn main() -> ! {
     // only touch state behind their locks (`Link`, `Motion`) or atomics.
     unsafe {
         cp.NVIC.set_priority(Interrupt::TIM5, STEP_PRIORITY);
-        cp.NVIC.set_priority(Interrupt::USART1, LINK_PRIORITY);
+        cp.NVIC.set_priority(Interrupt::USART1, STEP_PRIORITY);
+        cp.SCB.set_priority(SystemHandler::PendSV, LINK_PRIORITY);
         NVIC::unmask(Interrupt::TIM5);
         NVIC::unmask(Interrupt::USART1);
     }
@@ -292,8 +307,9 @@ fn stop() -> ! {
     cortex_m::interrupt::disable();
     loop {
         watchdog::feed();
-        // About 0.1 s at 168 MHz.
-        cortex_m::asm::delay(16_800_000);
+        // At least 25 ms at 168 MHz, a few times that with flash wait states: well inside
+        // the watchdog's timeout.
+        cortex_m::asm::delay(4_200_000);
     }
 }
 

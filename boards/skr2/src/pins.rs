@@ -149,6 +149,13 @@ pub fn shut_down() {
     for c in 0..CHANNELS {
         set_ccr(c, 0);
     }
+    // The compare registers are preloaded (a duty takes effect at the period's end, up to
+    // 10 ms later): an update event loads them now.
+    for timer in [TIM2, TIM3, TIM4] {
+        // SAFETY: the timer's event generation register (EGR, 0x14); UG reloads the counter
+        // and the shadow registers, nothing else.
+        unsafe { core::ptr::write_volatile((timer + 0x14) as *mut u32, 1) }
+    }
     for (port, n) in ENABLE {
         port.write(n, true);
     }

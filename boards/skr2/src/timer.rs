@@ -89,7 +89,8 @@ fn passed(at: u32) -> bool {
 }
 
 /// Runs the step interrupt at microsecond `at` (the counter's low 32 bits), or at once if
-/// that passed.
+/// that passed. From the step interrupt only (the highest priority: nothing preempts its
+/// read-modify-write of DIER).
 pub fn step_at(at: u32) {
     write(CCR1, at);
     write(SR, !CC1);
@@ -105,19 +106,22 @@ pub fn step_now() {
     NVIC::pend(Interrupt::TIM5);
 }
 
-/// Wakes the core at microsecond `at` (a link deadline).
+/// Wakes the core at microsecond `at` (a link deadline). From the main loop: DIER's
+/// read-modify-write runs masked, or the step interrupt's own could be lost in between.
 pub fn wake_at(at: u32) {
-    write(CCR2, at);
-    write(SR, !CC2);
-    write(DIER, read(DIER) | CC2);
+    cortex_m::interrupt::free(|_| {
+        write(CCR2, at);
+        write(SR, !CC2);
+        write(DIER, read(DIER) | CC2);
+    });
     if passed(at) {
         NVIC::pend(Interrupt::TIM5);
     }
 }
 
-/// Cancels [`wake_at`].
+/// Cancels [`wake_at`] (masked, as it).
 pub fn cancel_wake() {
-    write(DIER, read(DIER) & !CC2);
+    cortex_m::interrupt::free(|_| write(DIER, read(DIER) & !CC2));
 }
 
 /// The interrupt's work: counts an overflow, ends a wake-up, feeds the watchdog on a

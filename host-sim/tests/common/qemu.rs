@@ -39,6 +39,24 @@ pub fn lock() -> MutexGuard<'static, ()> {
     LOCK.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// A region's start in the top-level `memory.x` (the SKR 2's): the line `NAME : ORIGIN =
+/// 0x...`.
+pub fn board_origin(name: &str) -> usize {
+    let memory = std::fs::read_to_string(workspace().join("memory.x")).unwrap();
+    let line = memory
+        .lines()
+        .find(|l| l.trim_start().starts_with(name) && l.contains("ORIGIN"))
+        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
+    let origin = line
+        .split("ORIGIN =")
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap();
+    usize::from_str_radix(origin.trim().trim_start_matches("0x"), 16).unwrap()
+}
+
 /// A region's length in the top-level `memory.x` (the SKR 2's), bytes: the line
 /// `NAME : ORIGIN = .., LENGTH = NK` (or `NK - MK`).
 pub fn board_region(name: &str) -> usize {
