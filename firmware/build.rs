@@ -1,5 +1,6 @@
 //! Links with `link-mps2.x` (cortex-m-rt's `link.x`, vendored, including `memory-mps2.x`, a
-//! copy of `firmware/memory.x`: the top-level memory.x is the SKR 2 board's, and the linker
+//! copy of `firmware/memory.x`, or of `firmware/memory-compact.x` with the feature `compact`:
+//! the top-level memory.x is the SKR 2 board's, and the linker
 //! would find it first) (thumb targets only), and turns the four reference slices
 //! (host-sim/data/*.json) into Rust constants.
 

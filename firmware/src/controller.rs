@@ -43,14 +43,17 @@ pub struct Masked<T, const PRIORITY: u8>(RefCell<T>);
 
 impl<T, const PRIORITY: u8> Masked<T, PRIORITY> {
     pub const fn new(value: T) -> Self {
+        // BASEPRI 0 masks nothing: such a lock would not be one.
+        const { assert!(PRIORITY != 0, "a Masked priority of 0 masks nothing") };
         Masked(RefCell::new(value))
     }
 }
 
 // SAFETY: a firmware touches the value only from its main loop and from interrupts at
 // `PRIORITY` (each says so where it declares its static), and only inside `lock`, which raises
-// BASEPRI to `PRIORITY` first: no two of them run inside it at once.
-unsafe impl<T, const PRIORITY: u8> Sync for Masked<T, PRIORITY> {}
+// BASEPRI to `PRIORITY` first: no two of them run inside it at once. The value moves between
+// those contexts, so it must be `Send`.
+unsafe impl<T: Send, const PRIORITY: u8> Sync for Masked<T, PRIORITY> {}
 
 impl<T, const PRIORITY: u8> Shared<T> for Masked<T, PRIORITY> {
     fn lock<R>(&self, f: impl FnOnce(&mut T) -> R) -> R {

@@ -70,12 +70,12 @@ static RX: [AtomicU32; RING] = [const { AtomicU32::new(0) }; RING];
 static RX_HEAD: AtomicUsize = AtomicUsize::new(0);
 static RX_TAIL: AtomicUsize = AtomicUsize::new(0);
 
-/// Enables UART0 at `baud` (TX and RX, the RX interrupt) and the three interrupts: the
-/// UART's and timer 0's at priority `link`, the step interrupt's at `step` (NVIC priority
-/// bytes, lower preempts).
+/// Enables UART0 at `baud` (TX and RX, the RX interrupt) and the three interrupts: timer
+/// 0's at priority `link`, the UART's receive interrupt (which only fills the ring) and the
+/// step interrupt's at `step` (NVIC priority bytes, lower preempts).
 pub fn init(baud: u32, link: u8, step: u8) {
     // IPR0 byte 0: IRQ 0 (UART0 RX); IPR2 bytes 0 and 1: IRQ 8 (timer 0), IRQ 9 (timer 1).
-    NVIC_IPR0.write(link as u32);
+    NVIC_IPR0.write(step as u32);
     NVIC_IPR2.write(link as u32 | (step as u32) << 8);
     UART_BAUDDIV.write((CLOCK_HZ / baud).max(16));
     UART_CTRL.write(0b1011);

@@ -466,6 +466,19 @@ fn the_skr2_image_fits_the_stm32f407() {
     assert!(sram <= qemu::board_region("RAM"), "sram {sram}");
     assert!(ccm <= qemu::board_region("CCMRAM"), "ccm {ccm}");
     assert!(sram + ccm + stack + guard <= 192 * 1024);
+    // The QEMU firmwares with the board capacities link in the same budget
+    // (`firmware/memory-compact.x`): the board's stack, and its SRAM and CCM statics together.
+    let compact = "firmware/memory-compact.x";
+    assert_eq!(
+        qemu::region_in(compact, "STACK"),
+        stack,
+        "{compact}'s stack"
+    );
+    assert_eq!(
+        qemu::region_in(compact, "RAM"),
+        qemu::board_region("RAM") + qemu::board_region("CCMRAM"),
+        "{compact}'s statics: the board's SRAM and CCM statics"
+    );
 
     // What the bootloader and a probe see: no loadable byte below the image's start (a probe
     // flashing the ELF would write into the bootloader's sector), and a vector table at the

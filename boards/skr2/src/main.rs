@@ -250,8 +250,9 @@ fn main() -> ! {
 
     timer::start(rcc.clocks.timclk1().raw());
     watchdog::start();
-    // SAFETY: the NVIC priorities are set before the interrupts are unmasked; both handlers
-    // only touch state behind their locks (`Link`, `Motion`) or atomics.
+    // SAFETY: the priorities are set before the interrupts are unmasked; the three handlers
+    // (TIM5, USART1, PendSV) only touch state behind their locks (`LINK`, `MOTION`) or
+    // atomics and timer registers.
     unsafe {
         cp.NVIC.set_priority(Interrupt::TIM5, STEP_PRIORITY);
         cp.NVIC.set_priority(Interrupt::USART1, STEP_PRIORITY);

@@ -14,10 +14,11 @@
 //! the alarms that are due, each at its own deadline, then arms the timer for the next,
 //! while the main loop generates the layer and queues its moves (`hollowpath::app::steps`).
 //! The link's [`Session`] lives in its own static behind the link's interrupt priority
-//! (BASEPRI): the UART's receive interrupt serves it (acks, replies, the host's messages
-//! decoded into events), so the link keeps answering while the application plans a slice
-//! or builds a layer, seconds in which its loop reads no byte; the step interrupt has the
-//! higher priority, so serving the link never delays a step. The core sleeps (`wfi`) when
+//! (BASEPRI): PendSV serves it (acks, replies, the host's messages decoded into events),
+//! pended by the UART's receive interrupt, which only moves each byte into a ring, so the
+//! link keeps answering while the application plans a slice or builds a layer, seconds in
+//! which its loop reads no byte; the step and receive interrupts have the higher priority,
+//! so serving the link never delays a step nor a received byte. The core sleeps (`wfi`) when
 //! it has nothing to do, so QEMU's `-icount sleep=off` jumps the idle time. Waiting for the
 //! host it sleeps until a byte or an event is there and arms no timer: the link's own
 //! timers run when the host's next byte (its keep-alive) wakes it, so an idle firmware does
@@ -30,6 +31,7 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use cortex_m::peripheral::scb::SystemHandler;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
@@ -73,9 +75,8 @@ const LINK_CONFIG: LinkConfig = LinkConfig {
 static APP: ConstStaticCell<FwApp> = ConstStaticCell::new(App::new());
 
 /// The link side (controller, slice assembler, events, outbox), shared by the
-/// application's loop and the receive interrupt (priority LINK_PRIORITY, the only interrupt
-/// that touches it): BASEPRI masks the receive interrupt while a call into it runs, not the
-/// step interrupt.
+/// application's loop and PendSV (priority LINK_PRIORITY, the only interrupt that touches
+/// it): BASEPRI masks PendSV while a call into it runs, not the step or receive interrupts.
 static LINK: Masked<FwSession, LINK_PRIORITY> =
     Masked::new(Session::new(Controller::new(LINK_CONFIG, FIRMWARE)));
 
@@ -122,14 +123,24 @@ fn SysTick() {
 unsafe fn DefaultHandler(irqn: i16) {
     match irqn {
         0 => {
+            // The receive interrupt, at the step priority, only fills the ring; the link is
+            // served from PendSV at its own priority (as on the SKR 2, whose UART holds one
+            // byte: a frame written byte by byte must not hold off the next received one).
             mps2::on_rx();
-            // Serve the link here too: the application may be planning for seconds.
-            LINK.lock(|s| s.serve(&mut Mps2));
+            cortex_m::peripheral::SCB::set_pendsv();
         }
         8 => mps2::on_timer(),
         9 => on_step(),
         _ => {}
     }
+}
+
+/// The link served at its own priority (LINK_PRIORITY, the only interrupt that touches the
+/// session): acks, replies, the host's messages decoded into events, while the application
+/// plans for seconds.
+#[exception]
+fn PendSV() {
+    LINK.lock(|s| s.serve(&mut Mps2));
 }
 
 /// SysTick ticks since start.
@@ -200,6 +211,9 @@ fn main() -> ! {
     cp.SYST.enable_interrupt();
     cp.SYST.enable_counter();
     mps2::init(BAUD, LINK_PRIORITY, STEP_PRIORITY);
+    // SAFETY: set before any byte can pend it; PendSV touches only the session, behind its
+    // lock.
+    unsafe { cp.SCB.set_priority(SystemHandler::PendSV, LINK_PRIORITY) };
     let app = APP.take();
     MOTION.lock(|s| *s.board() = link_board::new());
     let mut io = Mps2;

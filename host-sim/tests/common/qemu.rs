@@ -60,11 +60,16 @@ pub fn board_origin(name: &str) -> usize {
 /// A region's length in the top-level `memory.x` (the SKR 2's), bytes: the line
 /// `NAME : ORIGIN = .., LENGTH = NK` (or `NK - MK`).
 pub fn board_region(name: &str) -> usize {
-    let memory = std::fs::read_to_string(workspace().join("memory.x")).unwrap();
+    region_in("memory.x", name)
+}
+
+/// A region's length in the linker script `file` (from the workspace root), bytes.
+pub fn region_in(file: &str, name: &str) -> usize {
+    let memory = std::fs::read_to_string(workspace().join(file)).unwrap();
     let line = memory
         .lines()
         .find(|l| l.trim_start().starts_with(name) && l.contains("LENGTH"))
-        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
+        .unwrap_or_else(|| panic!("no region {name} in {file}"));
     let length = line.split("LENGTH =").nth(1).unwrap();
     length
         .split('-')
