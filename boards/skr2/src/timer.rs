@@ -32,8 +32,10 @@ const CC2: u32 = 1 << 2;
 const CC3: u32 = 1 << 3;
 
 /// The watchdog's heartbeat period (well inside its timeout).
-pub const HEARTBEAT_US: u32 = 250_000;
-const _: () = assert!(HEARTBEAT_US / 1000 * 4 <= crate::watchdog::TIMEOUT_MS);
+pub const HEARTBEAT_US: u32 = 100_000;
+// A third of the watchdog's shortest timeout at least (the LSI runs 17-47 kHz: a 500 ms
+// timeout at 32 kHz is 340 ms at 47 kHz).
+const _: () = assert!(HEARTBEAT_US / 1000 * 5 <= crate::watchdog::TIMEOUT_MS);
 
 fn read(reg: usize) -> u32 {
     // SAFETY: `reg` is one of TIM5's registers above (aligned, mapped); reads have no side

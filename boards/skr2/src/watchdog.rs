@@ -1,5 +1,5 @@
 //! The independent watchdog (IWDG, on the 32 kHz LSI): it resets the chip if it is not fed for
-//! [`TIMEOUT_MS`]. TIM5's heartbeat feeds it from the step priority every 250 ms
+//! [`TIMEOUT_MS`]. TIM5's heartbeat feeds it from the step priority every 100 ms
 //! (`timer.rs`), so what it catches is a core that stopped running interrupts: a lockup (a
 //! fault while stacking a fault's frame, as a frame far past the stack guard can cause), or
 //! an interrupt of the step priority or above that never returns. After a reset every pin is
@@ -21,8 +21,10 @@ const RLR: usize = IWDG + 0x08;
 const SR: usize = IWDG + 0x0C;
 const DBGMCU_APB1_FZ: usize = 0xE004_2008;
 
-/// How long the chip may go unfed.
-pub const TIMEOUT_MS: u32 = 2_000;
+/// How long the chip may go unfed (nominal, at 32 kHz: the LSI runs 17-47 kHz). Short,
+/// because a locked-up core leaves the valves at their duty until the reset: at most about
+/// 0.5 s of a blob, not seconds.
+pub const TIMEOUT_MS: u32 = 500;
 /// The LSI's nominal rate over the prescaler of 64 (PR = 4): 500 counts a second.
 const COUNTS_PER_S: u32 = 32_000 / 64;
 const RELOAD: u32 = TIMEOUT_MS * COUNTS_PER_S / 1000 - 1;
