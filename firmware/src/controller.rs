@@ -13,6 +13,7 @@ use hollowpath::app::io::ticks_at;
 use hollowpath::app::{App, Io, Session, Shared, Stepping, Steps};
 use hollowpath::config::{MAX_HOLES, MAX_VERTICES};
 use hollowpath::link::message::Version;
+use hollowpath::motion::machine::Counters;
 use hollowpath::motion::stepper::before;
 use hollowpath::motion::Board;
 
@@ -67,12 +68,33 @@ impl<T, const PRIORITY: u8> Shared<T> for Masked<T, PRIORITY> {
     }
 }
 
-/// What the step side needs of a board's platform.
+/// What the step side and sleeping need of a board's platform.
 pub trait Platform {
     /// Makes the step interrupt run now (pends it).
     fn kick();
     /// Whether the link has work for the application (bytes not decoded, or events).
     fn link_pending() -> bool;
+    /// Arms a wake-up at microsecond `at` (it is `now` now; it may come earlier).
+    fn wake_at(now: u64, at: u64);
+    /// Cancels [`wake_at`](Self::wake_at).
+    fn cancel_wake();
+}
+
+/// `Io::sleep` on a Cortex-M: until microsecond `until` (read on `now_us`) or until the link
+/// has work, whichever is first (`None`: until the link has work); `wfi` between interrupts.
+pub fn sleep<P: Platform>(until: Option<u64>, now_us: impl Fn() -> u64) {
+    match until {
+        None => while !sleep_unless(P::link_pending) {},
+        Some(t) => {
+            let now = now_us();
+            if t <= now || P::link_pending() {
+                return;
+            }
+            P::wake_at(now, t);
+            while now_us() < t && !sleep_unless(P::link_pending) {}
+            P::cancel_wake();
+        }
+    }
 }
 
 /// The step side (the job's machine, the board, the queue of the layer's moves) behind a
@@ -82,6 +104,16 @@ pub struct StepSide<B, P>(Mutex<RefCell<Stepping<B>>>, PhantomData<P>);
 impl<B: Board, P: Platform> StepSide<B, P> {
     pub const fn new(board: B) -> Self {
         StepSide(Mutex::new(RefCell::new(Stepping::new(board))), PhantomData)
+    }
+}
+
+impl<B: Board, P: Platform> StepSide<B, P> {
+    /// The machine's counters if its steps changed since `*seen` (a job ran or went on since
+    /// the last look), `*seen` updated: the firmware's per-job report.
+    pub fn steps_changed(&self, seen: &mut u64) -> Option<Counters> {
+        let c = self.lock(|s| s.machine().map(|m| m.counters()))?;
+        let n = c.steps.iter().sum::<u64>();
+        (n != core::mem::replace(seen, n)).then_some(c)
     }
 }
 

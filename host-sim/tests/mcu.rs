@@ -16,14 +16,7 @@ fn firmware_plan_and_layers_are_bit_identical_to_the_host_ones() {
         return;
     }
     let _one = qemu::lock();
-    let elf = qemu::firmware(None);
-    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
-    let status = q
-        .wait_exit(Duration::from_secs(600))
-        .unwrap_or_else(|| panic!("the firmware did not finish within 600 s"));
-    let (out, err) = (q.stdout(), q.stderr());
-    println!("{out}");
-    assert!(status.success(), "firmware failed:\n{out}\n{err}");
+    let out = bench_output(&qemu::firmware(None), "the firmware");
     // The FPU's square root, which the core computes with on the MCU, equals libm's, which
     // it computes with on the host, bit for bit (the firmware fails on the first input that
     // differs; this line says the check ran).
@@ -369,6 +362,19 @@ fn failing_firmware(bin: &str, what: &str) -> Option<String> {
     Some(out)
 }
 
+/// Runs the bench firmware `elf` (`what`, for messages) to its end under QEMU, counting
+/// instructions: its semihosting output, which it must end in success.
+fn bench_output(elf: &std::path::Path, what: &str) -> String {
+    let mut q = Qemu::start(elf, Serial::Default, Clock::Instructions);
+    let status = q
+        .wait_exit(Duration::from_secs(600))
+        .unwrap_or_else(|| panic!("{what} did not finish within 600 s"));
+    let (out, err) = (q.stdout(), q.stderr());
+    println!("{out}");
+    assert!(status.success(), "{what} failed:\n{out}\n{err}");
+    out
+}
+
 /// The board capacities (`hollowpath/compact`, the SKR 2 image's) run the same application
 /// code under QEMU: the four reference slices at 2.5 times their road width (1.0 mm, the
 /// shapes of slices 0.4 of their size at 0.4 mm) plan and lay bit-identically to the host,
@@ -380,14 +386,7 @@ fn the_board_capacities_plan_like_the_host_within_the_skr2_stack() {
         return;
     }
     let _one = qemu::lock();
-    let elf = qemu::compact_firmware(None);
-    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
-    let status = q
-        .wait_exit(Duration::from_secs(600))
-        .unwrap_or_else(|| panic!("the compact firmware did not finish within 600 s"));
-    let (out, err) = (q.stdout(), q.stderr());
-    println!("{out}");
-    assert!(status.success(), "compact firmware failed:\n{out}\n{err}");
+    let out = bench_output(&qemu::compact_firmware(None), "the compact firmware");
     for (name, text) in host_sim::REFERENCE_SLICES {
         let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
         let w = json["settings"]["road_width"].as_f64().unwrap();
@@ -416,26 +415,7 @@ fn the_board_capacities_plan_like_the_host_within_the_skr2_stack() {
 /// reads the figures from the ELF and says them).
 #[test]
 fn the_skr2_image_fits_the_stm32f407() {
-    let ws = qemu::workspace();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let manifest = ws.join("boards/skr2/Cargo.toml");
-    let build = std::process::Command::new(cargo)
-        .current_dir(&ws)
-        .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
-        .arg("--manifest-path")
-        .arg(&manifest)
-        .arg("--target-dir")
-        .arg(ws.join("target/skr2"))
-        .env_remove("RUSTFLAGS")
-        .output()
-        .unwrap();
-    assert!(
-        build.status.success(),
-        "SKR 2 build failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
-    );
-    let elf = std::fs::read(ws.join("target/skr2/thumbv7em-none-eabihf/release/hollowpath-skr2"))
-        .unwrap();
+    let elf = std::fs::read(qemu::skr2_image()).unwrap();
     const SHF_ALLOC: u32 = 2;
     const SHT_NOBITS: u32 = 8;
     let sections = elf_sections(&elf);

@@ -43,8 +43,7 @@ use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::serial::{self, RxListen};
 
 use controller::{
-    sleep_unless, FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY,
-    STEP_PRIORITY,
+    FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY, STEP_PRIORITY,
 };
 
 #[path = "../../../firmware/src/controller.rs"]
@@ -84,7 +83,13 @@ impl Platform for Skr2Io {
         timer::step_now();
     }
     fn link_pending() -> bool {
-        link_pending()
+        uart::pending() || LINK.lock(|s| s.has_events())
+    }
+    fn wake_at(_now: u64, at: u64) {
+        timer::wake_at(at as u32);
+    }
+    fn cancel_wake() {
+        timer::cancel_wake();
     }
 }
 
@@ -120,10 +125,6 @@ fn PendSV() {
     LINK.lock(|s| s.serve(&mut Skr2Io));
 }
 
-fn link_pending() -> bool {
-    uart::pending() || LINK.lock(|s| s.has_events())
-}
-
 /// The platform of the application: USART1, TIM5's clock, `wfi`.
 struct Skr2Io;
 
@@ -138,17 +139,7 @@ impl Io for Skr2Io {
         uart::write(bytes)
     }
     fn sleep(&mut self, until: Option<u64>) {
-        match until {
-            None => while !sleep_unless(link_pending) {},
-            Some(t) => {
-                if t <= self.now_us() || link_pending() {
-                    return;
-                }
-                timer::wake_at(t as u32);
-                while self.now_us() < t && !sleep_unless(link_pending) {}
-                timer::cancel_wake();
-            }
-        }
+        controller::sleep::<Skr2Io>(until, timer::now_us);
     }
 }
 
@@ -182,17 +173,16 @@ fn main() -> ! {
     let gpiod = dp.GPIOD.split(&mut rcc);
     let gpioe = dp.GPIOE.split(&mut rcc);
 
-    // The power gate and the drivers' enables first, all off.
-    let mut power = gpioc.pc13.into_push_pull_output();
-    power.set_low();
-    let mut enables = (
+    // The power gate and the drivers' enables first, then the safe state `pins::shut_down`
+    // defines (power gate open, drivers disabled; an output starts low: the gate is open
+    // from the start).
+    let _power = (
+        gpioc.pc13.into_push_pull_output(),
         gpioe.pe3.into_push_pull_output(),
         gpiod.pd6.into_push_pull_output(),
         gpiod.pd1.into_push_pull_output(),
     );
-    enables.0.set_high();
-    enables.1.set_high();
-    enables.2.set_high();
+    pins::shut_down();
     // Steps and directions low; endstops and the emergency stop pulled up.
     let _outputs = (
         gpioe.pe2.into_push_pull_output(),
@@ -228,10 +218,8 @@ fn main() -> ! {
         halt("the valve timers' periods differ");
     }
     pins::FULL_DUTY.store(full, Ordering::Relaxed);
-    valves.0.set_duty(0);
-    valves.1.set_duty(0);
-    valves.2.set_duty(0);
-    valves.3.set_duty(0);
+    // Every duty 0, loaded now, before any output is enabled.
+    pins::shut_down();
     valves.0.enable();
     valves.1.enable();
     valves.2.enable();
@@ -273,23 +261,19 @@ fn main() -> ! {
         stack::room(),
         BAUD
     );
-    let mut jobs = 0u64;
+    let mut seen = 0u64;
     loop {
         app.poll(&LINK, &mut io, &MOTION);
-        if let Some(c) = MOTION.lock(|s| s.machine().map(|m| m.counters())) {
-            let n = c.steps.iter().sum::<u64>();
-            if n != jobs {
-                jobs = n;
-                defmt::info!(
-                    "job: steps {=u64} {=u64} {=u64}, alarms at most {=u32} ticks late, bytes lost {=usize}, stack peak {=usize}",
-                    c.steps[0],
-                    c.steps[1],
-                    c.steps[2],
-                    controller::LATEST.load(Ordering::Relaxed),
-                    uart::LOST.load(Ordering::Relaxed),
-                    stack::highest()
-                );
-            }
+        if let Some(c) = MOTION.steps_changed(&mut seen) {
+            defmt::info!(
+                "job: steps {=u64} {=u64} {=u64}, alarms at most {=u32} ticks late, bytes lost {=usize}, stack peak {=usize}",
+                c.steps[0],
+                c.steps[1],
+                c.steps[2],
+                controller::LATEST.load(Ordering::Relaxed),
+                uart::LOST.load(Ordering::Relaxed),
+                stack::highest()
+            );
         }
         io.sleep(None);
     }

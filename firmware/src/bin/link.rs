@@ -41,8 +41,7 @@ use hollowpath::link::endpoint::LinkConfig;
 use static_cell::ConstStaticCell;
 
 use controller::{
-    sleep_unless, FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY,
-    STEP_PRIORITY,
+    FwApp, FwSession, Masked, Platform, StepSide, FIRMWARE, LINK_PRIORITY, STEP_PRIORITY,
 };
 
 #[path = "../controller.rs"]
@@ -89,7 +88,14 @@ impl Platform for Mps2 {
         mps2::pend_step();
     }
     fn link_pending() -> bool {
-        link_pending()
+        mps2::rx_pending() || LINK.lock(|s| s.has_events())
+    }
+    fn wake_at(now: u64, at: u64) {
+        // Timer 0 counts APB ticks; a second at most (the loop sleeps again after it).
+        mps2::wake_in((at - now).min(1_000_000) as u32 * (mps2::CLOCK_HZ / 1_000_000));
+    }
+    fn cancel_wake() {
+        mps2::cancel_wake();
     }
 }
 
@@ -102,11 +108,6 @@ fn on_step() {
             mps2::step_in(apb.min(u32::MAX as u64) as u32);
         }
     });
-}
-
-/// Whether the link has events for the application (or bytes not yet decoded).
-fn link_pending() -> bool {
-    mps2::rx_pending() || LINK.lock(|s| s.has_events())
 }
 
 /// SysTick wraps (each 2^24 ticks).
@@ -175,22 +176,8 @@ impl Io for Mps2 {
         mps2::write(bytes)
     }
     fn sleep(&mut self, until: Option<u64>) {
-        match until {
-            None => {
-                // Until the host's next byte (SysTick wraps wake us on the way).
-                while !sleep_unless(link_pending) {}
-            }
-            Some(t) => {
-                let now = self.now_us();
-                if t <= now || link_pending() {
-                    return;
-                }
-                let ticks = (t - now).min(1_000_000) as u32 * (mps2::CLOCK_HZ / 1_000_000);
-                mps2::wake_in(ticks);
-                while self.now_us() < t && !sleep_unless(link_pending) {}
-                mps2::cancel_wake();
-            }
-        }
+        // Without a deadline, until the host's next byte (SysTick wraps wake us on the way).
+        controller::sleep::<Mps2>(until, || Mps2.now_us());
     }
 }
 
@@ -222,25 +209,21 @@ fn main() -> ! {
         core::mem::size_of::<FwApp>(),
         BAUD
     );
-    let mut jobs = 0u32;
+    let mut seen = 0u64;
     loop {
         app.poll(&LINK, &mut io, &MOTION);
-        if let Some(c) = MOTION.lock(|s| s.machine().map(|m| m.counters())) {
-            let n = c.steps.iter().sum::<u64>() as u32;
-            if n != jobs {
-                jobs = n;
-                hprintln!(
-                    "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late, ram static {} stack {}",
-                    c.steps[0],
-                    c.steps[1],
-                    c.steps[2],
-                    link_board::valves_shut(),
-                    io.now_us(),
-                    controller::LATEST.load(Ordering::Relaxed),
-                    stack::statics(),
-                    stack::highest()
-                );
-            }
+        if let Some(c) = MOTION.steps_changed(&mut seen) {
+            hprintln!(
+                "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late, ram static {} stack {}",
+                c.steps[0],
+                c.steps[1],
+                c.steps[2],
+                link_board::valves_shut(),
+                io.now_us(),
+                controller::LATEST.load(Ordering::Relaxed),
+                stack::statics(),
+                stack::highest()
+            );
         }
         io.sleep(None);
     }

@@ -103,24 +103,42 @@ fn built(bin: Option<&str>, compact: bool) -> PathBuf {
     } else {
         "target/firmware"
     });
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(&ws)
-        .args(["build", "-p", "hollowpath-qemu"]);
+    let mut args = vec!["-p", "hollowpath-qemu"];
     if compact {
-        cmd.args(["--features", "compact"]);
+        args.extend(["--features", "compact"]);
     }
     if let Some(b) = bin {
-        cmd.args(["--bin", b]);
+        args.extend(["--bin", b]);
     }
-    let build = cmd
-        .args([
-            "--release",
-            "--target",
-            "thumbv7em-none-eabihf",
-            "--target-dir",
-        ])
-        .arg(&target_dir)
+    let elf = build_thumb(&args, &target_dir, bin.unwrap_or("hollowpath-qemu"));
+    built.push((key, elf.clone()));
+    elf
+}
+
+/// Builds the SKR 2 image (`boards/skr2`, a workspace of its own) for the Cortex-M4F,
+/// release, into `target/skr2`; its ELF.
+pub fn skr2_image() -> PathBuf {
+    let ws = workspace();
+    let manifest = ws.join("boards/skr2/Cargo.toml");
+    let manifest = manifest.to_str().unwrap();
+    build_thumb(
+        &["--manifest-path", manifest],
+        &ws.join("target/skr2"),
+        "hollowpath-skr2",
+    )
+}
+
+/// `cargo build --release --target thumbv7em-none-eabihf` with `args` into `target_dir`
+/// (given explicitly: a `CARGO_TARGET_DIR` of the test run does not move it); the ELF of
+/// binary `bin`.
+fn build_thumb(args: &[&str], target_dir: &Path, bin: &str) -> PathBuf {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let build = Command::new(cargo)
+        .current_dir(workspace())
+        .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+        .args(args)
+        .arg("--target-dir")
+        .arg(target_dir)
         .env_remove("RUSTFLAGS")
         .output()
         .unwrap();
@@ -129,11 +147,7 @@ fn built(bin: Option<&str>, compact: bool) -> PathBuf {
         "firmware build failed:\n{}",
         String::from_utf8_lossy(&build.stderr)
     );
-    let elf = target_dir
-        .join("thumbv7em-none-eabihf/release")
-        .join(bin.unwrap_or("hollowpath-qemu"));
-    built.push((key, elf.clone()));
-    elf
+    target_dir.join("thumbv7em-none-eabihf/release").join(bin)
 }
 
 /// Where UART0 goes.
