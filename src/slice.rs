@@ -274,15 +274,27 @@ impl Feature {
         bounds.extend(self.chunks.iter().map(|b| polygon::bbox_distance2(*b, p)));
         let first = (1..bounds.len()).fold(0, |m, c| if bounds[c] < bounds[m] { c } else { m });
         // (point, squared distance, edge, chunk)
+        let pts = &self.points[..];
         let visit = |c: usize, best: &mut (Point, f32, usize, usize)| {
+            let p = Point::new(p.x, p.y);
             let ahead = best.1 == f32::INFINITY || (bounds[c], c) < (bounds[best.3], best.3);
-            for k in self.chunk_edges(c) {
-                let (q, _) =
-                    primitives::closest_on_segment(self.points[k], self.points[(k + 1) % n], p);
+            let mut edge = |k: usize, a: Point, b: Point| {
+                let (q, _) = primitives::closest_on_segment(a, b, p);
                 let d2 = (q - p).norm2();
-                if d2 < best.1 || (d2 == best.1 && ahead && best.3 != c) {
+                // The integer test first: after the chunk's first edge, `best.3 == c`.
+                if d2 < best.1 || (best.3 != c && ahead && d2 == best.1) {
                     *best = (q, d2, k, c);
                 }
+            };
+            let edges = self.chunk_edges(c);
+            // Each edge's end is the next one's start; the closing edge (to vertex 0), in the
+            // last chunk, on its own.
+            let inner = &pts[edges.start..(edges.end + 1).min(n)];
+            for (k, w) in (edges.start..).zip(inner.windows(2)) {
+                edge(k, w[0], w[1]);
+            }
+            if edges.end == n {
+                edge(n - 1, pts[n - 1], pts[0]);
             }
         };
         let mut best = (self.points[0], f32::INFINITY, 0, first);
@@ -294,11 +306,58 @@ impl Feature {
             }
         }
         let d = hollowpath_fpu::sqrtf(best.1);
-        let inside = polygon::bbox_distance2(self.bbox, p) == 0.0 && self.contains(p);
+        let inside = polygon::bbox_distance2(self.bbox, p) == 0.0 && {
+            let near = self.inside_near(p, best.2);
+            debug_assert!(near.is_none_or(|near| near == self.contains(p)));
+            near.unwrap_or_else(|| self.contains(p))
+        };
         Nearest {
             point: best.0,
             distance: if inside { -d } else { d },
             edge: best.2,
+        }
+    }
+
+    /// Whether `p` is inside, told from the boundary where it is nearest to `p`, on edge `k`;
+    /// `None` where rounding could make that answer differ from [`contains`](Self::contains)'s.
+    ///
+    /// The disc around `p` through its nearest boundary point `q` holds no boundary, so `p`
+    /// lies on the side of the boundary that the ray from `q` towards `p` leaves into: left of
+    /// the edge (the inside: a feature's points run counter-clockwise) where `q` is inside the
+    /// edge; where `q` is a vertex, inside the wedge between its two edges (left of both at a
+    /// convex vertex, left of either at a reflex one). Each side is a cross product, used only
+    /// where it is larger than its rounding can be ([`polygon::rounding_slack`] times the
+    /// vectors' sizes: every rounding in it is at most 6e-8 of a coordinate or of the
+    /// product), so the answer is the crossing test's wherever it is given; a point almost on
+    /// an edge's line, or a vertex almost straight, is left to the crossing test. One edge or
+    /// two in place of a crossing test over a whole run of edges.
+    fn inside_near(&self, p: Point, k: usize) -> Option<bool> {
+        let pts = &self.points[..];
+        let n = pts.len();
+        let next = |i: usize| if i + 1 < n { i + 1 } else { 0 };
+        let (a, b) = (pts[k], pts[next(k)]);
+        let slack = polygon::rounding_slack(p, self.bbox);
+        let size = |v: Point| libm::fabsf(v.x) + libm::fabsf(v.y);
+        // The sign of `cross(e, u)`, where it is certain.
+        let side = |e: Point, u: Point| {
+            let c = e.cross(u);
+            (libm::fabsf(c) > slack * (size(e) + size(u))).then_some(c > 0.0)
+        };
+        let (_, t) = primitives::closest_on_segment(a, b, p);
+        let (v, e_in, e_out) = if t <= 0.0 {
+            (a, a - pts[(k + n - 1) % n], b - a)
+        } else if t >= 1.0 {
+            (b, b - a, pts[next(next(k))] - b)
+        } else {
+            return side(b - a, p - (a + (b - a) * t));
+        };
+        let u = p - v;
+        let (left_in, left_out) = (side(e_in, u)?, side(e_out, u)?);
+        if left_in == left_out {
+            Some(left_in)
+        } else {
+            // Inside the wedge only at a reflex vertex (turning right).
+            side(e_in, e_out).map(|convex| !convex)
         }
     }
 

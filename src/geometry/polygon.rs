@@ -111,9 +111,17 @@ pub fn bbox_distance(b: (Point, Point), p: Point) -> f32 {
 
 /// The square of [`bbox_distance`], without its square root (a software routine on the
 /// Cortex-M4F's libm, dozens of instructions): for comparing with squared distances.
+///
+/// It runs for every chunk of every feature on every distance query, so its maxima are plain
+/// comparisons (one compare and one select each on the Cortex-M4F), not [`fmax`]'s NaN-aware
+/// ones: the square is the same. They differ only where `fmax` would pass over a NaN or pick
+/// `-0.0` over `0.0`; a NaN `p` gives both NaN differences, which either maximum passes on and
+/// the comparison with zero turns into 0 as `fmax` does, and a signed zero squares to `0.0`.
+#[inline]
 pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
-    let dx = fmax(fmax(b.0.x - p.x, p.x - b.1.x), 0.0);
-    let dy = fmax(fmax(b.0.y - p.y, p.y - b.1.y), 0.0);
+    let larger = |a: f32, b: f32| if a > b { a } else { b };
+    let dx = larger(larger(b.0.x - p.x, p.x - b.1.x), 0.0);
+    let dy = larger(larger(b.0.y - p.y, p.y - b.1.y), 0.0);
     dx * dx + dy * dy
 }
 
