@@ -239,32 +239,41 @@ impl Field {
     /// Solves Laplace's equation by successive over-relaxation until no node moves more than
     /// [`FIELD_TOLERANCE`] or [`FIELD_MAX_SWEEPS`] have run.
     pub fn solve(&mut self) {
-        let n = self.grid.len();
         let nx = self.grid.nx;
+        let n = self.grid.len();
+        // The grid's own slices, borrowed once: each sweep reads and writes them by index
+        // without reaching through `self` (the Cortex-M4F reloaded their addresses, large
+        // offsets into the static, at every node).
+        let (tags, values) = (&self.mem.tags[..n], &mut self.mem.values[..n]);
+        let boundary = &self.boundary[..];
         let mut sweeps = 0;
         let mut residual = f32::INFINITY;
         while sweeps < FIELD_MAX_SWEEPS && residual > FIELD_TOLERANCE {
             residual = 0.0;
+            // The boundary entries are in node order: the next one's node, or past the end.
             let mut cursor = 0;
+            let node_of = |c: usize| boundary.get(c).map_or(usize::MAX, |b| b.node as usize);
+            let mut next = node_of(0);
             for k in 0..n {
-                if self.mem.tags[k] >= KEEP_OUT {
+                if tags[k] >= KEEP_OUT {
                     continue;
                 }
-                let target =
-                    if cursor < self.boundary.len() && self.boundary[cursor].node as usize == k {
-                        let b = self.boundary[cursor];
-                        cursor += 1;
-                        self.weighted_average(k, &b)
-                    } else {
-                        0.25 * (self.mem.values[k + 1]
-                            + self.mem.values[k - 1]
-                            + self.mem.values[k + nx]
-                            + self.mem.values[k - nx])
-                    };
-                let old = self.mem.values[k];
+                let target = if k == next {
+                    let b = &boundary[cursor];
+                    cursor += 1;
+                    next = node_of(cursor);
+                    weighted_average(values, nx, k, b)
+                } else {
+                    0.25 * (values[k + 1] + values[k - 1] + values[k + nx] + values[k - nx])
+                };
+                let old = values[k];
                 let new = old + FIELD_OMEGA * (target - old);
-                self.mem.values[k] = new;
-                residual = residual.fmax(libm::fabsf(new - old));
+                values[k] = new;
+                // A plain comparison, `fmax`'s answer for the change (never NaN).
+                let change = libm::fabsf(new - old);
+                if change > residual {
+                    residual = change;
+                }
             }
             sweeps += 1;
         }
@@ -274,32 +283,7 @@ impl Field {
 
     /// Arm lengths (in grid spacings) and end values of node `k`.
     fn arms(&self, k: usize, b: Option<&BoundaryNode>) -> [(f32, f32); 4] {
-        let mut out = [(1.0, 0.0); 4];
-        for (a, &(dx, dy)) in ARMS.iter().enumerate() {
-            out[a] = match b {
-                Some(b) if b.theta[a] != 0 => (
-                    b.theta[a] as f32 / 255.0,
-                    if b.one & (1 << a) != 0 { 1.0 } else { 0.0 },
-                ),
-                _ => (1.0, self.mem.values[self.neighbour(k, dx, dy)]),
-            };
-        }
-        out
-    }
-
-    fn weighted_average(&self, k: usize, b: &BoundaryNode) -> f32 {
-        let arms = self.arms(k, Some(b));
-        let mut num = 0.0;
-        let mut den = 0.0;
-        for pair in [(0, 1), (2, 3)] {
-            let (tp, vp) = arms[pair.0];
-            let (tm, vm) = arms[pair.1];
-            let ap = 2.0 / (tp * (tp + tm));
-            let am = 2.0 / (tm * (tp + tm));
-            num += ap * vp + am * vm;
-            den += ap + am;
-        }
-        num / den
+        arms(&self.mem.values, self.grid.nx, k, b)
     }
 
     fn boundary_entry(&self, k: usize) -> Option<&BoundaryNode> {
@@ -395,4 +379,36 @@ pub(crate) fn fitted_grid(
         holds: Grid::square_side(h, GRID_NODES),
         spiral,
     })
+}
+
+/// Arm lengths (in grid spacings) and end values of node `k` of a grid `nx` nodes wide whose
+/// values are `values`.
+fn arms(values: &[f32], nx: usize, k: usize, b: Option<&BoundaryNode>) -> [(f32, f32); 4] {
+    let mut out = [(1.0, 0.0); 4];
+    for (a, &(dx, dy)) in ARMS.iter().enumerate() {
+        out[a] = match b {
+            Some(b) if b.theta[a] != 0 => (
+                b.theta[a] as f32 / 255.0,
+                if b.one & (1 << a) != 0 { 1.0 } else { 0.0 },
+            ),
+            _ => (1.0, values[(k as isize + dx + dy * nx as isize) as usize]),
+        };
+    }
+    out
+}
+
+/// The value at boundary node `k` (`b`) that the Laplacian's unequal-arm stencil asks for.
+fn weighted_average(values: &[f32], nx: usize, k: usize, b: &BoundaryNode) -> f32 {
+    let arms = arms(values, nx, k, Some(b));
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for pair in [(0, 1), (2, 3)] {
+        let (tp, vp) = arms[pair.0];
+        let (tm, vm) = arms[pair.1];
+        let ap = 2.0 / (tp * (tp + tm));
+        let am = 2.0 / (tm * (tp + tm));
+        num += ap * vp + am * vm;
+        den += ap + am;
+    }
+    num / den
 }

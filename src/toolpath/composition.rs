@@ -5,7 +5,7 @@ use core::cell::Cell;
 
 use crate::config::CHANNELS;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polygon, polyline, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{Material, Plan, Slice, Target};
 
 /// `(1 - t) a + t b`, channel by channel; exactly `a` at `t = 0` and `b` at `t = 1`.
@@ -78,9 +78,16 @@ pub struct BlendedField<'a> {
     plan: &'a Plan,
     /// The bounding box of MCL `k` of the plan at `k` (the rest unused).
     boxes: [(Point, Point); crate::config::MAX_MCLS],
+    /// The box around each run of [`RUN`] MCLs' boxes (MCLs are numbered round each hole in
+    /// turn, so a run's lie together): a run farther than the best so far is passed over
+    /// whole.
+    runs: [(Point, Point); crate::config::MAX_MCLS.div_ceil(RUN)],
     /// The MCL nearest to the last point asked about: looked at first next time.
     hint: Cell<usize>,
 }
+
+/// MCLs a run of [`BlendedField`]'s boxes holds.
+const RUN: usize = 8;
 
 impl<'a> BlendedField<'a> {
     /// The field of `plan`'s MCLs.
@@ -90,10 +97,16 @@ impl<'a> BlendedField<'a> {
         for (slot, m) in boxes.iter_mut().zip(plan.mcls.iter()) {
             *slot = plan.mcl_box(m);
         }
+        let mut runs =
+            [(Point::default(), Point::default()); crate::config::MAX_MCLS.div_ceil(RUN)];
+        for (slot, run) in runs.iter_mut().zip(boxes[..plan.mcls.len()].chunks(RUN)) {
+            *slot = primitives::union_all(run);
+        }
         BlendedField {
             slice,
             plan,
             boxes,
+            runs,
             hint: Cell::new(0),
         }
     }
@@ -125,9 +138,17 @@ impl<'a> BlendedField<'a> {
         if hint < mcls.len() {
             visit(hint, &mut best);
         }
-        for k in 0..mcls.len() {
-            if k != hint && polygon::bbox_distance2(self.boxes[k], p) <= best.3 {
-                visit(k, &mut best);
+        // In MCL order as before runs were kept: a run is passed over only where each of its
+        // boxes would have been (each lies inside the run's, and the best does not change
+        // while none is visited).
+        for (r, run) in self.runs.iter().enumerate().take(mcls.len().div_ceil(RUN)) {
+            if polygon::bbox_distance2(*run, p) > best.3 {
+                continue;
+            }
+            for k in r * RUN..((r + 1) * RUN).min(mcls.len()) {
+                if k != hint && polygon::bbox_distance2(self.boxes[k], p) <= best.3 {
+                    visit(k, &mut best);
+                }
             }
         }
         if best.1 == usize::MAX {
