@@ -143,6 +143,12 @@ enum Command {
         /// controller's own verdict (a bad slice comes back with the error `plan` gives).
         #[arg(long)]
         no_check: bool,
+        /// Milliseconds of silence after which the host sends a keep-alive (1 to 1000; the
+        /// controller stops a job after its watchdog, 3 s on the SKR 2, without a frame).
+        /// Under QEMU, whose clock outruns the wall clock, use 2.
+        #[arg(long, default_value_t = host_sim::print::KEEPALIVE_MS,
+              value_parser = clap::value_parser!(u64).range(1..=1000))]
+        keepalive_ms: u64,
     },
     /// Plan the built-in four-hole slice: MCLs, a zigzag and a spiral layer with previews,
     /// G-code, and a metrics table against the raster baseline; then slice the built-in
@@ -282,6 +288,7 @@ fn execute(cli: Cli) -> ExitCode {
             layers,
             report,
             no_check,
+            keepalive_ms,
         } => {
             let loaded = if no_check {
                 slice_file::load_contours(&slice).map(|c| (None, Some(c)))
@@ -320,7 +327,11 @@ fn execute(cli: Cli) -> ExitCode {
                     }
                     let layers =
                         u16::try_from(layers).map_err(|_| "too many layers".to_string())?;
-                    let r = host_sim::print::print(stream, job, &cfg, layers, interrupted)
+                    let link = hollowpath::link::endpoint::LinkConfig {
+                        keepalive_us: keepalive_ms * 1_000,
+                        ..host_sim::print::HOST_LINK
+                    };
+                    let r = host_sim::print::print(stream, job, &cfg, layers, link, interrupted)
                         .map_err(|e| e.to_string())?;
                     println!(
                         "printed {} layers, plan {:016x}, {} frames retransmitted, upload {} bytes in {} messages",

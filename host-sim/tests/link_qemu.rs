@@ -161,7 +161,9 @@ fn print_on(link: &[String], slice: &Path, printer: &Path, layers: &str, report:
         .arg("--printer")
         .arg(printer)
         .args(["--layers", layers, "--report"])
-        .arg(report);
+        .arg(report)
+        // QEMU's clock outruns the wall clock while it prints (`print::KEEPALIVE_MS`).
+        .args(["--keepalive-ms", "2"]);
     cmd
 }
 
@@ -622,7 +624,11 @@ fn while_the_firmware_plans_its_receive_interrupt_acknowledges_the_host() {
     let port = free_port();
     let q = Qemu::start(&elf, Serial::Tcp(port), Clock::JumpIdle);
     let stream = host_sim::print::open_tcp(&format!("127.0.0.1:{port}")).unwrap();
-    let mut client = LinkClient::new(stream, host_sim::print::HOST_LINK);
+    let link = hollowpath::link::endpoint::LinkConfig {
+        keepalive_us: 2_000,
+        ..host_sim::print::HOST_LINK
+    };
+    let mut client = LinkClient::new(stream, link);
     client.timeout = Duration::from_secs(120);
     client.hello().unwrap();
     let slice = host_sim::slice_file::parse(host_sim::REFERENCE_SLICES[0].1)
