@@ -82,8 +82,22 @@ pub struct BlendedField<'a> {
     /// turn, so a run's lie together): a run farther than the best so far is passed over
     /// whole.
     runs: [(Point, Point); crate::config::MAX_MCLS.div_ceil(RUN)],
+    /// How far MCL `k` strays from its chord (the segment between its ends, [`chord`]): no
+    /// point of it is nearer `p` than the chord less this, a tighter bound than its box for
+    /// an MCL that runs slantwise.
+    strays: [f32; crate::config::MAX_MCLS],
     /// The MCL nearest to the last point asked about: looked at first next time.
     hint: Cell<usize>,
+}
+
+/// The ends of MCL `m`: the segment [`BlendedField`] bounds its distance by.
+fn chord(plan: &Plan, m: &crate::Mcl) -> (Point, Point) {
+    let first = plan.halves.points(m.first as usize);
+    let end = match m.second {
+        Some(s) => plan.halves.points(s as usize)[0],
+        None => first[first.len() - 1],
+    };
+    (first[0], end)
 }
 
 /// MCLs a run of [`BlendedField`]'s boxes holds.
@@ -102,13 +116,34 @@ impl<'a> BlendedField<'a> {
         for (slot, run) in runs.iter_mut().zip(boxes[..plan.mcls.len()].chunks(RUN)) {
             *slot = primitives::union_all(run);
         }
+        let mut strays = [0.0; crate::config::MAX_MCLS];
+        for (slot, m) in strays.iter_mut().zip(plan.mcls.iter()) {
+            let (a, b) = chord(plan, m);
+            // The farthest vertex: a point between two vertices is no farther from the
+            // chord than the farther of them (the distance to a segment is convex).
+            *slot = plan
+                .points_iter(m)
+                .map(|q| primitives::closest_on_segment(a, b, q).0.dist(q))
+                .fold(0.0, |m, d| if d > m { d } else { m });
+        }
         BlendedField {
             slice,
             plan,
             boxes,
             runs,
+            strays,
             hint: Cell::new(0),
         }
+    }
+
+    /// Whether MCL `k` is farther than `reach` from `p` by its chord: every point of it is
+    /// within its stray of the chord, so it is at least the chord's distance less the stray
+    /// away. `reach` carries the caller's rounding slack (four times
+    /// [`polygon::rounding_slack`]: the chord's distance and the stray are each a few
+    /// roundings deep), so an MCL passed over could neither have won nor tied.
+    fn beyond(&self, k: usize, p: Point, reach: f32) -> bool {
+        let (a, b) = chord(self.plan, &self.plan.mcls[k]);
+        primitives::closest_on_segment(a, b, p).0.dist(p) - self.strays[k] > reach
     }
 
     /// The composition at `p`; `None` for a plan without MCLs (or a NaN point, whose
@@ -146,7 +181,10 @@ impl<'a> BlendedField<'a> {
                 continue;
             }
             for k in r * RUN..((r + 1) * RUN).min(mcls.len()) {
-                if k != hint && polygon::bbox_distance2(self.boxes[k], p) <= best.3 {
+                if k != hint
+                    && polygon::bbox_distance2(self.boxes[k], p) <= best.3
+                    && !self.beyond(k, p, best.0 + 4.0 * slack)
+                {
                     visit(k, &mut best);
                 }
             }
