@@ -305,6 +305,56 @@ proptest! {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// The sign of `Feature::nearest`'s distance is read from the boundary at the nearest
+    /// point (the edge's side, or the wedge at a vertex) wherever rounding cannot tip it,
+    /// else from the crossing test: it must be the crossing test's answer everywhere,
+    /// notably just off an edge, just off a vertex (convex or reflex), at spikes (`lobes`
+    /// with a large `wobble`), on the boundary itself, and far from the origin.
+    #[test]
+    fn the_sign_of_a_distance_is_the_crossing_tests_answer(
+        r in 0.5f32..40.0,
+        wobble in 0.0f32..0.6,
+        lobes in 2.0f32..12.0,
+        n in 3usize..256,
+        off in (-900.0f32..900.0, -900.0f32..900.0),
+        queries in proptest::collection::vec(
+            (-1.5f32..1.5, -1.5f32..1.5, 0usize..256, 0u8..5, -3.0f32..3.0, -8i32..0),
+            64,
+        ),
+    ) {
+        let pts = blob(Point::new(off.0, off.1), r, 1.0, 0.8, wobble, lobes.floor(), 0.3, n);
+        let Ok(f) = Feature::new(FeatureId::Hole(0), &pts, [0.0, 1.0, 0.0, 0.0]) else {
+            return Ok(());
+        };
+        let v = f.points();
+        for (qx, qy, k, kind, side, exp) in queries {
+            let (a, b) = (v[k % v.len()], v[(k + 1) % v.len()]);
+            let e = b - a;
+            let normal = Point::new(-e.y, e.x) * (1.0 / e.norm().max(1e-30));
+            // An offset from 1e-8 to 3 of the radius, on either side.
+            let step = side * 10f32.powi(exp) * r;
+            let p = match kind {
+                0 => Point::new(off.0 + qx * r, off.1 + qy * r),
+                // Just off the middle of an edge, either side.
+                1 => a + e * 0.5 + normal * step,
+                // Just off a vertex, in any direction.
+                2 => a + Point::new(qx, qy) * (10f32.powi(exp) * r),
+                // On an edge, and at a vertex.
+                3 => a + e * 0.5,
+                _ => a,
+            };
+            prop_assert_eq!(
+                f.nearest(p).distance.is_sign_negative(),
+                f.contains(p),
+                "point {:?}", p
+            );
+        }
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     /// `Slice::nearest_feature` measures the feature with the nearest box first and skips the
