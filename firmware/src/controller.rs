@@ -80,18 +80,61 @@ pub trait Platform {
     fn cancel_wake();
 }
 
+/// The main loop's check-ins since start (wrapping): the heartbeat compares them with its
+/// last look ([`main_loop_alive`]).
+static CHECK_INS: AtomicU32 = AtomicU32::new(0);
+/// The check-ins the heartbeat saw last, and how many heartbeats in a row saw no new one
+/// (the heartbeat's own: only its interrupt touches them).
+static SEEN: AtomicU32 = AtomicU32::new(0);
+static SILENT_BEATS: AtomicU32 = AtomicU32::new(0);
+
+/// How long the main loop may go without checking in before the watchdog is left unfed.
+/// It checks in at every turn of the application's loop, every wake-up while it sleeps or
+/// waits for the step queue (the heartbeat's interrupt wakes it, so an idle loop checks in at
+/// the heartbeat's pace) and every time it takes the step side (each move it queues); the
+/// longest it computes between two is planning a slice and preparing its spiral, 0.21 G
+/// instructions on four_holes with the board's capacities (1.3 s at 168 MHz). A main loop
+/// stuck longer (a deadlock, a runaway computation) lets the watchdog reset the board into
+/// its safe state.
+pub const MAIN_LOOP_SILENCE_US: u32 = 10_000_000;
+
+/// The main loop is alive (thread mode only: an interrupt's call would vouch for it).
+pub fn check_in() {
+    CHECK_INS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// The heartbeat's test before it feeds the watchdog, called once per heartbeat from its
+/// interrupt: whether the main loop checked in within the last `beats` heartbeats.
+pub fn main_loop_alive(beats: u32) -> bool {
+    let n = CHECK_INS.load(Ordering::Relaxed);
+    if SEEN.swap(n, Ordering::Relaxed) != n {
+        SILENT_BEATS.store(0, Ordering::Relaxed);
+        true
+    } else {
+        SILENT_BEATS.fetch_add(1, Ordering::Relaxed) + 1 < beats
+    }
+}
+
 /// `Io::sleep` on a Cortex-M: until microsecond `until` (read on `now_us`) or until the link
-/// has work, whichever is first (`None`: until the link has work); `wfi` between interrupts.
+/// has work, whichever is first (`None`: until the link has work); `wfi` between interrupts,
+/// checking in ([`check_in`]) at every wake-up.
 pub fn sleep<P: Platform>(until: Option<u64>, now_us: impl Fn() -> u64) {
+    check_in();
     match until {
-        None => while !sleep_unless(P::link_pending) {},
+        None => {
+            while !sleep_unless(P::link_pending) {
+                check_in();
+            }
+        }
         Some(t) => {
             let now = now_us();
             if t <= now || P::link_pending() {
                 return;
             }
             P::wake_at(now, t);
-            while now_us() < t && !sleep_unless(P::link_pending) {}
+            while now_us() < t && !sleep_unless(P::link_pending) {
+                check_in();
+            }
             P::cancel_wake();
         }
     }
@@ -120,6 +163,13 @@ impl<B: Board, P: Platform> StepSide<B, P> {
 impl<B: Board, P: Platform> Steps for StepSide<B, P> {
     type Board = B;
     fn lock<R>(&self, f: impl FnOnce(&mut Stepping<B>) -> R) -> R {
+        // The main loop takes the step side for every move it queues: alive. (The step
+        // interrupt takes it too, and must not vouch for the main loop.)
+        if cortex_m::peripheral::SCB::vect_active()
+            == cortex_m::peripheral::scb::VectActive::ThreadMode
+        {
+            check_in();
+        }
         critical_section::with(|cs| f(&mut self.0.borrow_ref_mut(cs)))
     }
     fn kick(&self) {
@@ -127,7 +177,8 @@ impl<B: Board, P: Platform> Steps for StepSide<B, P> {
     }
     fn wait<I: Io>(&self, _io: &mut I) {
         // Until the step interrupt ran (it runs at every step) or a byte came; at once if the
-        // step side is at rest.
+        // step side is at rest. The main loop is alive: it is feeding the step queue.
+        check_in();
         sleep_unless(|| P::link_pending() || self.lock(|s| s.deadline().is_none()));
     }
 }

@@ -263,6 +263,9 @@ fn printing_on_the_firmware_reports_the_telemetry_simulate_computes() {
         .unwrap_or_else(|| panic!("no job line from the firmware:\n{}", q.stdout()));
     let (statics, stack) = ram_figures(&line);
     drop(q);
+    // The main loop checked in at every heartbeat's interval: a board's watchdog would have
+    // been fed throughout (planning, preparing, printing both layers).
+    assert!(line.contains("silent heartbeats 0,"), "{line}");
     println!(
         "clean line: {wall:.1} s wall for 2 layers, {} frames retransmitted, upload {} bytes in {} messages; ram static {statics} stack {stack}",
         got["retransmitted"], got["upload_bytes"], got["upload_messages"]
@@ -345,6 +348,7 @@ fn the_board_capacities_print_within_the_skr2_stack() {
         .unwrap_or_else(|| panic!("no job line from the firmware:\n{}", q.stdout()));
     let (statics, stack) = ram_figures(&line);
     drop(q);
+    assert!(line.contains("silent heartbeats 0,"), "{line}");
     let room = qemu::board_region("STACK");
     println!(
         "board capacities: {wall:.1} s wall for 2 layers of four_holes at 1.0 mm; ram static {statics} stack {stack} (the SKR 2's stack region {room})"

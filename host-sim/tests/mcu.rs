@@ -343,6 +343,67 @@ fn a_fault_shuts_the_valves_and_names_the_faulting_instruction() {
     );
 }
 
+/// A main loop that hangs is caught: the firmwares feed their watchdog from a heartbeat only
+/// while the main loop checked in lately (`firmware/src/controller.rs`, `check_in`,
+/// `main_loop_alive`). The `watchdog_drill` firmware opens a valve and spins in its main
+/// loop without checking in: the heartbeat stops feeding QEMU's CMSDK watchdog, whose
+/// interrupt (the NMI) shuts the valve, and whose second expiry resets the machine; the
+/// firmware boots again, finds the mark it left in `.uninit`, and exits with success.
+#[test]
+fn a_hung_main_loop_leaves_the_watchdog_unfed_which_shuts_the_valves_and_resets() {
+    if !qemu::available("the watchdog drill") {
+        return;
+    }
+    let _one = qemu::lock();
+    let elf = qemu::firmware(Some("watchdog_drill"));
+    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
+    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
+        panic!(
+            "the hung main loop went unnoticed:
+{}",
+            q.stdout()
+        )
+    });
+    let out = q.stdout();
+    println!("{out}");
+    assert!(
+        status.success(),
+        "no reset, or not the drill's:
+{out}"
+    );
+    let lines: Vec<&str> = out.lines().collect();
+    let at = |prefix: &str| {
+        lines
+            .iter()
+            .position(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| {
+                panic!(
+                    "no `{prefix}` in:
+{out}"
+                )
+            })
+    };
+    let (opened, silent, caught, again) = (
+        at("valve 0 open: valves shut false"),
+        at("heartbeat at "),
+        at("watchdog interrupt: valves shut true"),
+        at("booted again after the watchdog's reset"),
+    );
+    assert!(
+        opened < silent && silent < caught && caught < again,
+        "{out}"
+    );
+    // The heartbeat went on feeding while the main loop's last check-in was recent: the
+    // first heartbeats (0.17 s apart) fed it, one within 0.6 s found the loop silent.
+    let us: u64 = lines[silent]
+        .trim_start_matches("heartbeat at ")
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{}", lines[silent]));
+    assert!((300_000..600_000).contains(&us), "{}", lines[silent]);
+}
+
 /// Runs the firmware `bin`, which provokes `what` on purpose, to its end: it must end QEMU with
 /// failure (the fault handler's exit) within two minutes; its semihosting output, or `None`
 /// where QEMU is not installed.

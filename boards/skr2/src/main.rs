@@ -20,7 +20,9 @@
 //! stack in CCM above a 4 KiB MPU guard (`firmware/src/stack.rs`, shared with QEMU). A panic or a
 //! HardFault (a stack overflow included) shuts the valves, disables the drivers and opens
 //! the power gate first ([`pins::shut_down`]), then logs and halts. The independent watchdog
-//! ([`watchdog`], fed by TIM5's heartbeat) resets a core that stopped running interrupts.
+//! ([`watchdog`], fed by TIM5's heartbeat while the main loop checks in:
+//! `controller::main_loop_alive`) resets a core that stopped running interrupts, or whose
+//! main loop went silent for `controller::MAIN_LOOP_SILENCE_US`.
 //!
 //! The image is for the STM32F407VG of the first SKR 2 boards; later boards carry an
 //! STM32F429VG, whose memory map (192 KiB SRAM, 64 KiB CCM, same bootloader offset) and
@@ -237,6 +239,7 @@ fn main() -> ! {
     rx.listen();
 
     timer::start(rcc.clocks.timclk1().raw());
+    controller::check_in();
     watchdog::start();
     // SAFETY: the priorities are set before the interrupts are unmasked; the three handlers
     // (TIM5, USART1, PendSV) only touch state behind their locks (`LINK`, `MOTION`) or

@@ -127,7 +127,7 @@ pub fn cancel_wake() {
 }
 
 /// The interrupt's work: counts an overflow, ends a wake-up, feeds the watchdog on a
-/// heartbeat, and says whether the step alarm is due (its compare matched, or [`step_now`]
+/// heartbeat while the main loop is alive, and says whether the step alarm is due (its compare matched, or [`step_now`]
 /// asked), disarming it.
 pub fn on_interrupt() -> bool {
     let sr = read(SR);
@@ -142,7 +142,13 @@ pub fn on_interrupt() -> bool {
     }
     if sr & CC3 != 0 {
         write(CCR3, read(CCR3).wrapping_add(HEARTBEAT_US));
-        crate::watchdog::feed();
+        // Only while the main loop is alive: one stuck (a deadlock, a runaway computation)
+        // lets the watchdog reset the board into its safe state.
+        if crate::controller::main_loop_alive(
+            crate::controller::MAIN_LOOP_SILENCE_US / HEARTBEAT_US,
+        ) {
+            crate::watchdog::feed();
+        }
     }
     let due = (sr & CC1 != 0 && dier & CC1 != 0) | STEP_NOW.swap(false, Ordering::Acquire);
     if due {

@@ -1,12 +1,13 @@
 //! The independent watchdog (IWDG, on the 32 kHz LSI): it resets the chip if it is not fed for
 //! [`TIMEOUT_MS`]. TIM5's heartbeat feeds it from the step priority every 100 ms
-//! (`timer.rs`), so what it catches is a core that stopped running interrupts: a lockup (a
-//! fault while stacking a fault's frame, as a frame far past the stack guard can cause), or
-//! an interrupt of the step priority or above that never returns. After a reset every pin is
-//! an input again: the MOSFETs' gates are pulled down, so the valves close, and the power gate
-//! (PC13) lets go. It cannot see a main loop stuck in planning (the core plans without
-//! yielding for seconds): the link's host watchdog covers a job, the MCU's shutdown covers
-//! the rest. A halted fault (`main.rs`'s `stop`) keeps feeding it, so the board stays stopped
+//! (`timer.rs`) while the main loop checks in (`controller::main_loop_alive`), so what it
+//! catches is a core that stopped running interrupts (a lockup: a fault while stacking a
+//! fault's frame, as a frame far past the stack guard can cause; an interrupt of the step
+//! priority or above that never returns) and a main loop silent for
+//! `controller::MAIN_LOOP_SILENCE_US` (a deadlock, a runaway computation: the longest it
+//! computes between check-ins, planning and preparing the spiral, takes about 1.3 s). After
+//! a reset every pin is an input again: the MOSFETs' gates are pulled down, so the valves
+//! close, and the power gate (PC13) lets go. A halted fault (`main.rs`'s `stop`) keeps feeding it, so the board stays stopped
 //! with its valves shut and its log readable instead of rebooting into a printer ready to
 //! move. A debugger's halt stops it (DBGMCU).
 //!

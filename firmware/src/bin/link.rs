@@ -114,9 +114,26 @@ fn on_step() {
 static WRAPS: AtomicU32 = AtomicU32::new(0);
 const RELOAD: u32 = 0x00FF_FFFF;
 
+/// SysTick wraps (0.67 s apart) that found the main loop silent for
+/// `controller::MAIN_LOOP_SILENCE_US`: each one a heartbeat the SKR 2 would not have fed its
+/// watchdog on (reported with each job; the tests hold it to 0). QEMU's CMSDK watchdog is not
+/// armed here: under `-icount sleep=off` the emulated clock races over idle time, and after
+/// some 170 emulated seconds of it SysTick stops waking the idle firmware while the
+/// watchdog's timer runs on (`tests/mcu.rs` runs the watchdog in `watchdog_drill`, without
+/// `sleep=off`).
+static SILENT_HEARTBEATS: AtomicU32 = AtomicU32::new(0);
+
+/// Heartbeats in `controller::MAIN_LOOP_SILENCE_US`: SysTick wraps every 2^24 ticks.
+const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * mps2::CLOCK_HZ as u64
+    / 1_000_000
+    / (RELOAD as u64 + 1)) as u32;
+
 #[exception]
 fn SysTick() {
     WRAPS.fetch_add(1, Ordering::Relaxed);
+    if !controller::main_loop_alive(BEATS) {
+        SILENT_HEARTBEATS.fetch_add(1, Ordering::Relaxed);
+    }
 }
 
 /// The device interrupts (no PAC: cortex-m-rt routes them all here).
@@ -214,13 +231,14 @@ fn main() -> ! {
         app.poll(&LINK, &mut io, &MOTION);
         if let Some(c) = MOTION.steps_changed(&mut seen) {
             hprintln!(
-                "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late, ram static {} stack {}",
+                "job: steps {} {} {} valves shut {} at {} us, alarms at most {} ticks late, silent heartbeats {}, ram static {} stack {}",
                 c.steps[0],
                 c.steps[1],
                 c.steps[2],
                 link_board::valves_shut(),
                 io.now_us(),
                 controller::LATEST.load(Ordering::Relaxed),
+                SILENT_HEARTBEATS.load(Ordering::Relaxed),
                 stack::statics(),
                 stack::highest()
             );
