@@ -115,6 +115,14 @@ pub const fn parked() -> LinkBoard {
     }
 }
 
+/// Opens valve `k` of `board` at half its duty (the drills' valve, which their fault or
+/// watchdog must shut); whether it took the duty.
+#[allow(dead_code)] // the drills' only
+pub fn open_half(board: &mut LinkBoard, k: usize) -> bool {
+    use hollowpath::motion::Board;
+    board.valve(k).set_duty_cycle(MAX_DUTY / 2).is_ok()
+}
+
 /// Pins for the default printer's polarities (endstops active high, the emergency stop
 /// active high): endstops hit, emergency stop released.
 pub fn new() -> LinkBoard {

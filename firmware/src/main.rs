@@ -16,7 +16,6 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use hollowpath::slice::SliceStore;
@@ -29,6 +28,8 @@ use static_cell::{ConstStaticCell, StaticCell};
 mod fault;
 mod link_board;
 mod motion_bench;
+#[allow(dead_code)]
+mod mps2;
 mod stack;
 
 mod slice_data {
@@ -120,13 +121,7 @@ fn built_in_slice<'s>(r: &slice_data::RefSlice, store: &'s mut SliceStore) -> &'
 #[entry]
 fn main() -> ! {
     let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| fail("peripherals", ()));
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
-    // The counter loads RELOAD on its first tick; count from there.
-    while cortex_m::peripheral::SYST::get_current() == 0 {}
+    mps2::start_systick(&mut cp.SYST, RELOAD);
 
     stack::paint();
     if !stack::install_guard(&mut cp.MPU) {

@@ -58,6 +58,18 @@ const STEP_INT: Reg = Reg(TIMER1 + 0x0C);
 /// Timer 1's interrupt: the step interrupt.
 pub const STEP_IRQ: u16 = 9;
 
+/// Starts SysTick on the core's 25 MHz clock, wrapping every `reload + 1` ticks with its
+/// interrupt, and waits for its first reload (the counter loads `reload` on its first tick:
+/// from then on it counts).
+pub fn start_systick(syst: &mut cortex_m::peripheral::SYST, reload: u32) {
+    syst.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+    syst.set_reload(reload);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    while cortex_m::peripheral::SYST::get_current() == 0 {}
+}
+
 const NVIC_ISER0: Reg = Reg(0xE000_E100);
 const NVIC_ISPR0: Reg = Reg(0xE000_E200);
 const NVIC_IPR0: Reg = Reg(0xE000_E400);

@@ -351,26 +351,10 @@ fn a_fault_shuts_the_valves_and_names_the_faulting_instruction() {
 /// firmware boots again, finds the mark it left in `.uninit`, and exits with success.
 #[test]
 fn a_hung_main_loop_leaves_the_watchdog_unfed_which_shuts_the_valves_and_resets() {
-    if !qemu::available("the watchdog drill") {
+    let Some((status, out)) = drill("watchdog_drill", "the hung main loop") else {
         return;
-    }
-    let _one = qemu::lock();
-    let elf = qemu::firmware(Some("watchdog_drill"));
-    let mut q = Qemu::start(&elf, Serial::Default, Clock::Instructions);
-    let status = q.wait_exit(Duration::from_secs(120)).unwrap_or_else(|| {
-        panic!(
-            "the hung main loop went unnoticed:
-{}",
-            q.stdout()
-        )
-    });
-    let out = q.stdout();
-    println!("{out}");
-    assert!(
-        status.success(),
-        "no reset, or not the drill's:
-{out}"
-    );
+    };
+    assert!(status.success(), "no reset, or not the drill's:\n{out}");
     let lines: Vec<&str> = out.lines().collect();
     let at = |prefix: &str| {
         lines
@@ -408,6 +392,14 @@ fn a_hung_main_loop_leaves_the_watchdog_unfed_which_shuts_the_valves_and_resets(
 /// failure (the fault handler's exit) within two minutes; its semihosting output, or `None`
 /// where QEMU is not installed.
 fn failing_firmware(bin: &str, what: &str) -> Option<String> {
+    let (status, out) = drill(bin, what)?;
+    assert!(!status.success(), "{what} ended in success:\n{out}");
+    Some(out)
+}
+
+/// Runs the drill firmware `bin` (which provokes `what`) to its end within two minutes: its
+/// exit status and semihosting output, or `None` where QEMU is not installed.
+fn drill(bin: &str, what: &str) -> Option<(std::process::ExitStatus, String)> {
     if !qemu::available(what) {
         return None;
     }
@@ -419,8 +411,7 @@ fn failing_firmware(bin: &str, what: &str) -> Option<String> {
         .unwrap_or_else(|| panic!("{what} went unnoticed (QEMU still runs):\n{}", q.stdout()));
     let out = q.stdout();
     println!("{out}");
-    assert!(!status.success(), "{what} ended in success:\n{out}");
-    Some(out)
+    Some((status, out))
 }
 
 /// Runs the bench firmware `elf` (`what`, for messages) to its end under QEMU, counting

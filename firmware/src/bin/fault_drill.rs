@@ -9,8 +9,6 @@
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
-use embedded_hal::pwm::SetDutyCycle;
-use hollowpath::motion::Board;
 
 #[path = "../fault.rs"]
 mod fault;
@@ -23,12 +21,7 @@ mod stack;
 
 #[entry]
 fn main() -> ! {
-    let mut board = link_board::new();
-    if board
-        .valve(0)
-        .set_duty_cycle(link_board::MAX_DUTY / 2)
-        .is_err()
-    {
+    if !link_board::open_half(&mut link_board::new(), 0) {
         hprintln!("error: valve 0 refused its duty");
     }
     hprintln!(

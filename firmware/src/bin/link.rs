@@ -32,7 +32,6 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::scb::SystemHandler;
-use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use hollowpath::app::{App, Io, Session, Shared, Steps};
@@ -209,11 +208,7 @@ fn main() -> ! {
     if !stack::install_guard(&mut cp.MPU) {
         fail("stack guard: not aligned to its size");
     }
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
+    mps2::start_systick(&mut cp.SYST, RELOAD);
     mps2::init(BAUD, LINK_PRIORITY, STEP_PRIORITY);
     // SAFETY: set before any byte can pend it; PendSV touches only the session, behind its
     // lock.

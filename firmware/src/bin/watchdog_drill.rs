@@ -15,11 +15,8 @@
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use embedded_hal::pwm::SetDutyCycle;
-use hollowpath::motion::Board;
 
 #[path = "../controller.rs"]
 #[allow(dead_code)]
@@ -111,19 +108,8 @@ fn main() -> ! {
         debug::exit(debug::EXIT_SUCCESS);
     }
     let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| panic!("peripherals"));
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
-    // The counter loads RELOAD on its first tick; count from there.
-    while cortex_m::peripheral::SYST::get_current() == 0 {}
-    let mut board = link_board::new();
-    if board
-        .valve(0)
-        .set_duty_cycle(link_board::MAX_DUTY / 2)
-        .is_err()
-    {
+    mps2::start_systick(&mut cp.SYST, RELOAD);
+    if !link_board::open_half(&mut link_board::new(), 0) {
         hprintln!("error: valve 0 refused its duty");
     }
     controller::check_in();
