@@ -34,6 +34,9 @@ pub struct Feature {
     chunks: Vec<(Point, Point), { MAX_VERTICES / CHUNK }>,
     /// Arc length of the boundary up to each vertex (the keep-out curves' parameter).
     at_vertex: Vec<f32, MAX_VERTICES>,
+    /// Whether the boundary nearly touches itself ([`polygon::pinched`]): then the sign of a
+    /// distance comes from the crossing test alone ([`Feature::nearest`]).
+    pinched: bool,
 }
 
 /// Edges per chunk of a feature's distance index.
@@ -76,6 +79,7 @@ impl Feature {
             bbox: (Point::new(0.0, 0.0), Point::new(0.0, 0.0)),
             chunks: Vec::new(),
             at_vertex: Vec::new(),
+            pinched: false,
         }
     }
 
@@ -161,6 +165,9 @@ impl Feature {
             at_vertex.push(acc).map_err(|_| Limit::Vertices.error())?;
             acc += pts[k].dist(pts[(k + 1) % n]);
         }
+        // Generously past rounding (`polygon::rounding_slack` is 1e-5 of the coordinates):
+        // ten times it.
+        let pinched = polygon::pinched(&pts, 10.0 * polygon::rounding_slack(bbox.1, bbox));
         Ok(Feature {
             id,
             points: pts,
@@ -168,6 +175,7 @@ impl Feature {
             bbox,
             chunks,
             at_vertex,
+            pinched,
         })
     }
 
@@ -307,7 +315,11 @@ impl Feature {
         }
         let d = hollowpath_fpu::sqrtf(best.1);
         let inside = polygon::bbox_distance2(self.bbox, p) == 0.0 && {
-            let near = self.inside_near(p, best.2);
+            let near = if self.pinched {
+                None
+            } else {
+                self.inside_near(p, best.2)
+            };
             debug_assert!(near.is_none_or(|near| near == self.contains(p)));
             near.unwrap_or_else(|| self.contains(p))
         };
@@ -320,6 +332,10 @@ impl Feature {
 
     /// Whether `p` is inside, told from the boundary where it is nearest to `p`, on edge `k`;
     /// `None` where rounding could make that answer differ from [`contains`](Self::contains)'s.
+    /// Only for a feature that is not [`pinched`](polygon::pinched): where the boundary comes
+    /// within rounding of itself (a gap thinner than that, a sharp spike), the edge found
+    /// nearest can be the far side of the gap, a near tie with the right one, and this would
+    /// answer for that side.
     ///
     /// The disc around `p` through its nearest boundary point `q` holds no boundary, so `p`
     /// lies on the side of the boundary that the ray from `q` towards `p` leaves into: left of

@@ -304,6 +304,42 @@ proptest! {
     }
 }
 
+/// A boundary that nearly touches itself (a slit thinner than rounding can tell apart): the
+/// nearest edge to a point can be a near tie between the slit's two sides, so the sign of its
+/// distance must come from the crossing test there, not from the side of whichever edge won
+/// the tie (found by review: the point (12, 1) came out +1, outside, with a slit of 1e-8).
+#[test]
+fn a_slit_thinner_than_rounding_gets_the_crossing_tests_sign() {
+    for g in [1e-8f32, 3e-8, 1e-6, 1e-4] {
+        let pts = [
+            (0.0, -10.0),
+            (20.0, -10.0),
+            (20.0, -g),
+            (5.0, -g),
+            (5.0, 0.0),
+            (20.0, 0.0),
+            (20.0, 10.0),
+            (0.0, 10.0),
+        ]
+        .map(|(x, y)| Point::new(x, y));
+        let f = Feature::new(FeatureId::Wall, &pts, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        for p in [
+            (12.0, 1.0),
+            (12.0, -1.0),
+            (12.0, 5.0),
+            (6.0, -3.0),
+            (19.0, 0.5),
+        ] {
+            let p = Point::new(p.0, p.1);
+            assert_eq!(
+                f.nearest(p).distance.is_sign_negative(),
+                f.contains(p),
+                "slit {g}, point {p:?}"
+            );
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 

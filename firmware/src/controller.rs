@@ -89,14 +89,16 @@ static SEEN: AtomicU32 = AtomicU32::new(0);
 static SILENT_BEATS: AtomicU32 = AtomicU32::new(0);
 
 /// How long the main loop may go without checking in before the watchdog is left unfed.
-/// It checks in at every turn of the application's loop, every wake-up while it sleeps or
-/// waits for the step queue (the heartbeat's interrupt wakes it, so an idle loop checks in at
-/// the heartbeat's pace) and every time it takes the step side (each move it queues); the
-/// longest it computes between two is planning a slice and preparing its spiral, 0.21 G
-/// instructions on four_holes with the board's capacities (1.3 s at 168 MHz). A main loop
-/// stuck longer (a deadlock, a runaway computation) lets the watchdog reset the board into
-/// its safe state.
-pub const MAIN_LOOP_SILENCE_US: u32 = 10_000_000;
+/// It checks in at every wake-up while it sleeps or waits for the step queue (the heartbeat's
+/// interrupt wakes it, so an idle loop checks in at the heartbeat's pace) and every time it
+/// takes the step side (each move it queues). Between two it may plan a slice and prepare
+/// its spiral, which has no check-in: 0.21 G instructions on four_holes with the board's
+/// capacities (1.3 s at 168 MHz), and not bounded here for every slice the capacities admit
+/// (the field's solve alone may run 4 000 sweeps over 5 120 nodes, about 0.8 G instructions,
+/// 5 s), hence 30 s. What it catches is a main loop stuck computing (an endless loop, a
+/// runaway search); one that waits forever on a step side whose interrupt stopped still
+/// checks in at every wake-up, and is not this watchdog's to see.
+pub const MAIN_LOOP_SILENCE_US: u32 = 30_000_000;
 
 /// The main loop is alive (thread mode only: an interrupt's call would vouch for it).
 pub fn check_in() {

@@ -33,9 +33,10 @@ pub const HOST_LINK: LinkConfig = LinkConfig {
 
 /// `print`'s keep-alive by default (`--keepalive-ms`): 100 ms, thirty to the SKR 2's 3 s
 /// host watchdog, and a 9-byte frame (an ack: header, CRC, COBS and delimiter) ten times a
-/// second, under 1 % of a 115 200 baud line (every 2 ms it was 39 %). Under QEMU (`-icount shift=0,sleep=off`) the controller's clock runs about a
-/// hundred times faster than the wall clock while it prints, so the QEMU tests and
-/// README's commands keep it alive every 2 ms of wall time.
+/// second, under 1 % of a 115 200 baud line (every 2 ms it was 39 %). The QEMU tests and
+/// README's QEMU command keep 2 ms, as before the option: under `-icount shift=0,sleep=off`
+/// the controller's clock runs about a hundred times faster than the wall clock while it
+/// prints and jumps over idle time while it waits.
 pub const KEEPALIVE_MS: u64 = 100;
 
 /// Longest wait for any message during a job.

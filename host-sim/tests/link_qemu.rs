@@ -263,8 +263,9 @@ fn printing_on_the_firmware_reports_the_telemetry_simulate_computes() {
         .unwrap_or_else(|| panic!("no job line from the firmware:\n{}", q.stdout()));
     let (statics, stack) = ram_figures(&line);
     drop(q);
-    // The main loop checked in at every heartbeat's interval: a board's watchdog would have
-    // been fed throughout (planning, preparing, printing both layers).
+    // The main loop never went as many instructions without a check-in as the SKR 2's 30 s
+    // (`firmware/src/bin/link.rs`, BEATS): a board's watchdog would have been fed throughout
+    // (receiving, planning, preparing, printing both layers).
     assert!(line.contains("silent heartbeats 0,"), "{line}");
     println!(
         "clean line: {wall:.1} s wall for 2 layers, {} frames retransmitted, upload {} bytes in {} messages; ram static {statics} stack {stack}",

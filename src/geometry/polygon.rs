@@ -1,7 +1,7 @@
 //! Closed polygons given as point slices (the closing edge implied).
 
 pub use super::primitives::{bbox, orient, segments_cross, segments_meet};
-use super::primitives::{closest_on_segment, fmax};
+use super::primitives::{closest_on_segment, fmax, fmin};
 use super::Point;
 
 /// Twice the signed area: positive for counter-clockwise.
@@ -86,6 +86,58 @@ pub fn self_intersection(pts: &[Point]) -> Option<(usize, usize)> {
     }
     None
 }
+
+/// Whether the closed polygon `pts` (no two of its edges meeting but neighbours at their
+/// shared vertex) nearly touches itself: two edges that are not neighbours within `tol` of
+/// each other, or two neighbours folding back on each other at less than [`PINCH_ANGLE`].
+/// Where a boundary comes that close to itself, the edge nearest a point can be a near tie
+/// between its two sides (`Feature::nearest` then tells inside from outside by the crossing
+/// test alone).
+pub fn pinched(pts: &[Point], tol: f32) -> bool {
+    let n = pts.len();
+    let (sin_min, tol2) = (libm::sinf(PINCH_ANGLE), tol * tol);
+    for i in 0..n {
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
+        // The fold at vertex `i + 1` between edge `i` and the next.
+        let c = pts[(i + 2) % n];
+        let (u, v) = (a - b, c - b);
+        if u.dot(v) > 0.0 && libm::fabsf(u.cross(v)) < sin_min * u.norm() * v.norm() {
+            return true;
+        }
+        let (lo, hi) = (
+            Point::new(fmin(a.x, b.x) - tol, fmin(a.y, b.y) - tol),
+            Point::new(fmax(a.x, b.x) + tol, fmax(a.y, b.y) + tol),
+        );
+        for j in (i + 2)..n {
+            if i == 0 && j == n - 1 {
+                continue;
+            }
+            let (c, d) = (pts[j], pts[(j + 1) % n]);
+            if (c.x < lo.x && d.x < lo.x)
+                || (c.x > hi.x && d.x > hi.x)
+                || (c.y < lo.y && d.y < lo.y)
+                || (c.y > hi.y && d.y > hi.y)
+            {
+                continue;
+            }
+            // Edges that do not meet are nearest at an end of one of them.
+            let near = |p: Point, a: Point, b: Point| (closest_on_segment(a, b, p).0 - p).norm2();
+            if near(c, a, b) < tol2
+                || near(d, a, b) < tol2
+                || near(a, c, d) < tol2
+                || near(b, c, d) < tol2
+            {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The sharpest fold between neighbouring edges [`pinched`] lets pass, radians (14 degrees):
+/// sharper, a point's distances to the two edges can tie within rounding while their sides
+/// differ.
+pub const PINCH_ANGLE: f32 = 0.25;
 
 /// The first pair of edges (one of each polygon) that meet, if any.
 pub fn boundaries_meet(p: &[Point], q: &[Point]) -> Option<(usize, usize)> {

@@ -22,7 +22,7 @@
 //! the power gate first ([`pins::shut_down`]), then logs and halts. The independent watchdog
 //! ([`watchdog`], fed by TIM5's heartbeat while the main loop checks in:
 //! `controller::main_loop_alive`) resets a core that stopped running interrupts, or whose
-//! main loop went silent for `controller::MAIN_LOOP_SILENCE_US`.
+//! main loop stopped checking in for `controller::MAIN_LOOP_SILENCE_US`.
 //!
 //! The image is for the STM32F407VG of the first SKR 2 boards; later boards carry an
 //! STM32F429VG, whose memory map (192 KiB SRAM, 64 KiB CCM, same bootloader offset) and

@@ -3,9 +3,10 @@
 //! (`timer.rs`) while the main loop checks in (`controller::main_loop_alive`), so what it
 //! catches is a core that stopped running interrupts (a lockup: a fault while stacking a
 //! fault's frame, as a frame far past the stack guard can cause; an interrupt of the step
-//! priority or above that never returns) and a main loop silent for
-//! `controller::MAIN_LOOP_SILENCE_US` (a deadlock, a runaway computation: the longest it
-//! computes between check-ins, planning and preparing the spiral, takes about 1.3 s). After
+//! priority or above that never returns) and a main loop that stopped checking in for
+//! `controller::MAIN_LOOP_SILENCE_US` (stuck computing: an endless loop, a runaway search;
+//! planning and preparing the spiral, the longest stretch without a check-in, took 1.3 s on
+//! four_holes). After
 //! a reset every pin is an input again: the MOSFETs' gates are pulled down, so the valves
 //! close, and the power gate (PC13) lets go. A halted fault (`main.rs`'s `stop`) keeps feeding it, so the board stays stopped
 //! with its valves shut and its log readable instead of rebooting into a printer ready to

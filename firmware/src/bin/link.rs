@@ -113,19 +113,26 @@ fn on_step() {
 static WRAPS: AtomicU32 = AtomicU32::new(0);
 const RELOAD: u32 = 0x00FF_FFFF;
 
-/// SysTick wraps (0.67 s apart) that found the main loop silent for
-/// `controller::MAIN_LOOP_SILENCE_US`: each one a heartbeat the SKR 2 would not have fed its
-/// watchdog on (reported with each job; the tests hold it to 0). QEMU's CMSDK watchdog is not
+/// SysTick wraps (0.67 s apart) that found the main loop without a check-in for [`BEATS`]
+/// wraps, as many instructions as `controller::MAIN_LOOP_SILENCE_US` take the SKR 2: each one
+/// a heartbeat the board would not have fed its watchdog on (reported with each job; the
+/// tests hold it to 0). QEMU's CMSDK watchdog is not
 /// armed here: under `-icount sleep=off` the emulated clock races over idle time, and after
 /// some 170 emulated seconds of it SysTick stops waking the idle firmware while the
 /// watchdog's timer runs on (`tests/mcu.rs` runs the watchdog in `watchdog_drill`, without
 /// `sleep=off`).
 static SILENT_HEARTBEATS: AtomicU32 = AtomicU32::new(0);
 
-/// Heartbeats in `controller::MAIN_LOOP_SILENCE_US`: SysTick wraps every 2^24 ticks.
-const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * mps2::CLOCK_HZ as u64
+/// Heartbeats in `controller::MAIN_LOOP_SILENCE_US` of the SKR 2's time: QEMU's emulated
+/// clock (`-icount shift=0`) counts one instruction a nanosecond, the board runs 168 M a
+/// second (one a cycle at best), so 30 s on the board are 5.04 emulated seconds, 7.5 SysTick
+/// wraps of 2^24 ticks: 8 (a stretch without a check-in spanning 8 wraps is at least 4.7 G
+/// instructions, 28 s at 168 MHz).
+const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * 168 / 1_000 * mps2::CLOCK_HZ as u64
     / 1_000_000
-    / (RELOAD as u64 + 1)) as u32;
+    / (RELOAD as u64 + 1)) as u32
+    + 1;
+const _: () = assert!(BEATS == 8);
 
 #[exception]
 fn SysTick() {

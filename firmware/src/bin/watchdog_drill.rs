@@ -13,7 +13,7 @@
 #![no_main]
 
 use core::mem::MaybeUninit;
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
@@ -89,7 +89,9 @@ fn marked() -> &'static AtomicU32 {
 }
 
 static WRAPS: AtomicU32 = AtomicU32::new(0);
-static SILENT: AtomicBool = AtomicBool::new(false);
+/// When the heartbeat first found the main loop silent (us, 0: not yet): the NMI reports
+/// it, so that only one context prints once the main loop hangs.
+static SILENT_AT: AtomicU32 = AtomicU32::new(0);
 
 /// Microseconds since start on SysTick's wraps (the heartbeat's resolution is enough here).
 fn now_us() -> u64 {
@@ -130,21 +132,24 @@ fn SysTick() {
     let now = now_us();
     if controller::main_loop_alive(BEATS) {
         watchdog_feed();
-    } else if !SILENT.swap(true, Ordering::Relaxed) {
-        hprintln!(
-            "heartbeat at {} us: the main loop is silent, the watchdog unfed",
-            now
-        );
+    } else if SILENT_AT.load(Ordering::Relaxed) == 0 {
+        SILENT_AT.store(now as u32, Ordering::Relaxed);
     }
 }
 
 /// The watchdog's interrupt: the valves first, then the report; the reset follows.
 // SAFETY (cortex-m-rt asks NMI handlers to be `unsafe`: an NMI preempts critical sections):
-// it only shuts the valves (atomic stores) and prints, then waits for the reset; nothing it
-// touches is held by the code it preempts (the spinning main loop, or the heartbeat).
+// it shuts the valves (atomic stores), prints and waits for the reset. It is the only
+// printer once the main loop hangs (the main loop's last line comes before the watchdog can
+// expire, and the heartbeat only records when it found the loop silent), so semihosting's
+// output is never entered twice.
 #[exception]
 unsafe fn NonMaskableInt() {
     link_board::shut_valves();
+    hprintln!(
+        "heartbeat at {} us: the main loop is silent, the watchdog unfed",
+        SILENT_AT.load(Ordering::Relaxed)
+    );
     hprintln!(
         "watchdog interrupt: valves shut {}",
         link_board::valves_shut()
