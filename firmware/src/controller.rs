@@ -100,7 +100,7 @@ static SILENT_BEATS: AtomicU32 = AtomicU32::new(0);
 /// checks in at every wake-up, and is not this watchdog's to see.
 pub const MAIN_LOOP_SILENCE_US: u32 = 30_000_000;
 
-/// The main loop is alive (thread mode only: an interrupt's call would vouch for it).
+/// The main loop is alive (from the main loop only: an interrupt's call would vouch for it).
 pub fn check_in() {
     CHECK_INS.fetch_add(1, Ordering::Relaxed);
 }
@@ -150,9 +150,14 @@ impl<B: Board, P: Platform> StepSide<B, P> {
     pub const fn new(board: B) -> Self {
         StepSide(Mutex::new(RefCell::new(Stepping::new(board))), PhantomData)
     }
-}
 
-impl<B: Board, P: Platform> StepSide<B, P> {
+    /// The step interrupt's work ([`run_step_alarms`]) on the step side, behind the same
+    /// critical section as [`Steps::lock`] but without its check-in: the interrupt must not
+    /// vouch for the main loop. The next alarm's wait, as `run_step_alarms` gives it.
+    pub fn run_alarms(&self, now_us: impl Fn() -> u64) -> Option<(u32, u32)> {
+        critical_section::with(|cs| run_step_alarms(&mut self.0.borrow_ref_mut(cs), now_us))
+    }
+
     /// The machine's counters if its steps changed since `*seen` (a job ran or went on since
     /// the last look), `*seen` updated: the firmware's per-job report.
     pub fn steps_changed(&self, seen: &mut u64) -> Option<Counters> {
@@ -166,12 +171,8 @@ impl<B: Board, P: Platform> Steps for StepSide<B, P> {
     type Board = B;
     fn lock<R>(&self, f: impl FnOnce(&mut Stepping<B>) -> R) -> R {
         // The main loop takes the step side for every move it queues: alive. (The step
-        // interrupt takes it too, and must not vouch for the main loop.)
-        if cortex_m::peripheral::SCB::vect_active()
-            == cortex_m::peripheral::scb::VectActive::ThreadMode
-        {
-            check_in();
-        }
+        // interrupt takes it through `run_alarms`, which does not check in.)
+        check_in();
         critical_section::with(|cs| f(&mut self.0.borrow_ref_mut(cs)))
     }
     fn kick(&self) {
@@ -179,8 +180,7 @@ impl<B: Board, P: Platform> Steps for StepSide<B, P> {
     }
     fn wait<I: Io>(&self, _io: &mut I) {
         // Until the step interrupt ran (it runs at every step) or a byte came; at once if the
-        // step side is at rest. The main loop is alive: it is feeding the step queue.
-        check_in();
+        // step side is at rest (the test takes the step side: a check-in).
         sleep_unless(|| P::link_pending() || self.lock(|s| s.deadline().is_none()));
     }
 }

@@ -360,12 +360,7 @@ fn a_hung_main_loop_leaves_the_watchdog_unfed_which_shuts_the_valves_and_resets(
         lines
             .iter()
             .position(|l| l.starts_with(prefix))
-            .unwrap_or_else(|| {
-                panic!(
-                    "no `{prefix}` in:
-{out}"
-                )
-            })
+            .unwrap_or_else(|| panic!("no `{prefix}` in:\n{out}"))
     };
     let (opened, silent, caught, again) = (
         at("valve 0 open: valves shut false"),

@@ -35,7 +35,7 @@ use core::sync::atomic::Ordering;
 use cortex_m::peripheral::scb::SystemHandler;
 use cortex_m_rt::{entry, exception};
 use defmt_rtt as _;
-use hollowpath::app::{App, Io, Session, Shared, Steps};
+use hollowpath::app::{App, Io, Session, Shared};
 use hollowpath::link::controller::Controller;
 use hollowpath::link::endpoint::LinkConfig;
 use static_cell::ConstStaticCell;
@@ -100,13 +100,11 @@ fn TIM5() {
     if !timer::on_interrupt() {
         return;
     }
-    MOTION.lock(|s| {
-        if let Some((wait, hz)) = controller::run_step_alarms(s, timer::now_us) {
-            // The deadline on the microsecond counter, from the clock after the alarms ran.
-            let us = (wait as u64 * 1_000_000).div_ceil(hz as u64);
-            timer::step_at(timer::now_us().wrapping_add(us.min(u32::MAX as u64 / 2)) as u32);
-        }
-    });
+    if let Some((wait, hz)) = MOTION.run_alarms(timer::now_us) {
+        // The deadline on the microsecond counter, from the clock after the alarms ran.
+        let us = (wait as u64 * 1_000_000).div_ceil(hz as u64);
+        timer::step_at(timer::now_us().wrapping_add(us.min(u32::MAX as u64 / 2)) as u32);
+    }
 }
 
 /// USART1's receive interrupt, at the step interrupt's priority: it only moves the byte into

@@ -101,12 +101,10 @@ impl Platform for Mps2 {
 /// The step interrupt: runs the alarms that are due and arms timer 1 for the next one.
 fn on_step() {
     mps2::on_step_timer();
-    MOTION.lock(|s| {
-        if let Some((wait, hz)) = controller::run_step_alarms(s, || Mps2.now_us()) {
-            let apb = wait as u64 * mps2::CLOCK_HZ as u64 / hz as u64;
-            mps2::step_in(apb.min(u32::MAX as u64) as u32);
-        }
-    });
+    if let Some((wait, hz)) = MOTION.run_alarms(|| Mps2.now_us()) {
+        let apb = wait as u64 * mps2::CLOCK_HZ as u64 / hz as u64;
+        mps2::step_in(apb.min(u32::MAX as u64) as u32);
+    }
 }
 
 /// SysTick wraps (each 2^24 ticks).
@@ -128,10 +126,13 @@ static SILENT_HEARTBEATS: AtomicU32 = AtomicU32::new(0);
 /// second (one a cycle at best), so 30 s on the board are 5.04 emulated seconds, 7.5 SysTick
 /// wraps of 2^24 ticks: 8 (a stretch without a check-in spanning 8 wraps is at least 4.7 G
 /// instructions, 28 s at 168 MHz).
-const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * 168 / 1_000 * mps2::CLOCK_HZ as u64
-    / 1_000_000
+const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * BOARD_INSTRUCTIONS_PER_US
+    / 1_000 // emulated us: QEMU runs 1 000 instructions an emulated us
+    * (mps2::CLOCK_HZ as u64 / 1_000_000)
     / (RELOAD as u64 + 1)) as u32
     + 1;
+/// The SKR 2's instructions a microsecond at most (168 MHz, one a cycle).
+const BOARD_INSTRUCTIONS_PER_US: u64 = 168;
 const _: () = assert!(BEATS == 8);
 
 #[exception]

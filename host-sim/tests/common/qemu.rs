@@ -42,18 +42,8 @@ pub fn lock() -> MutexGuard<'static, ()> {
 /// A region's start in the top-level `memory.x` (the SKR 2's): the line `NAME : ORIGIN =
 /// 0x...`.
 pub fn board_origin(name: &str) -> usize {
-    let memory = std::fs::read_to_string(workspace().join("memory.x")).unwrap();
-    let line = memory
-        .lines()
-        .find(|l| l.trim_start().starts_with(name) && l.contains("ORIGIN"))
-        .unwrap_or_else(|| panic!("no region {name} in memory.x"));
-    let origin = line
-        .split("ORIGIN =")
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .next()
-        .unwrap();
+    let origin = region_field("memory.x", name, "ORIGIN =");
+    let origin = origin.split(',').next().unwrap();
     usize::from_str_radix(origin.trim().trim_start_matches("0x"), 16).unwrap()
 }
 
@@ -63,14 +53,20 @@ pub fn board_region(name: &str) -> usize {
     region_in("memory.x", name)
 }
 
-/// A region's length in the linker script `file` (from the workspace root), bytes.
-pub fn region_in(file: &str, name: &str) -> usize {
+/// What follows `key` on region `name`'s line of the linker script `file` (from the
+/// workspace root).
+fn region_field(file: &str, name: &str, key: &str) -> String {
     let memory = std::fs::read_to_string(workspace().join(file)).unwrap();
     let line = memory
         .lines()
-        .find(|l| l.trim_start().starts_with(name) && l.contains("LENGTH"))
+        .find(|l| l.trim_start().starts_with(name) && l.contains(key))
         .unwrap_or_else(|| panic!("no region {name} in {file}"));
-    let length = line.split("LENGTH =").nth(1).unwrap();
+    line.split(key).nth(1).unwrap().to_string()
+}
+
+/// A region's length in the linker script `file` (from the workspace root), bytes.
+pub fn region_in(file: &str, name: &str) -> usize {
+    let length = region_field(file, name, "LENGTH =");
     length
         .split('-')
         .map(|t| t.trim().trim_end_matches('K').parse::<usize>().unwrap() * 1024)
