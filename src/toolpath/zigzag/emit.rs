@@ -127,6 +127,13 @@ pub(super) fn emit_mcl(
     Ok(())
 }
 
+/// How far before and after the inner arc's ends a splice's outer arc runs on the nearer line,
+/// in road widths ([`emit_arc`]). On the benchmark's 200 random slices the zigzag's median
+/// overfill is 0.048 with none (the outer arc stepping down at the inner arc's ends), 0.041
+/// with one road; half a road gives two thirds of that, one and a half a little more at a
+/// small cost in coverage.
+const SPLICE_LEAD: f32 = 1.0;
+
 /// How an arc of a curve lies among the others.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Arc {
@@ -274,7 +281,9 @@ pub(super) fn off_curve(slice: &Slice, c: usize, p: Point, delta: f32) -> Point 
 /// ends). There they share the road's strip half and half instead of both covering it: the
 /// outer arc runs a quarter road nearer the feature and the inner one a quarter road farther,
 /// both half a road wide ([`shared_strip`]), and the MCLs into the inner arc end on its line
-/// ([`inner_end`]).
+/// ([`inner_end`]). The outer arc keeps to its half from [`SPLICE_LEAD`] before the inner
+/// arc's first end to as far after its last: the MCLs into the inner arc are as wide as their
+/// bands there, and a full-width outer arc beside them doubled a lens a road across at each.
 pub(super) fn emit_arc(
     slice: &Slice,
     ends: &Ends,
@@ -330,6 +339,11 @@ pub(super) fn emit_arc(
             }
         }
         Arc::Outer(x, y) => {
+            // The shared stretch starts and ends a little before and after the inner arc's
+            // ends: the MCLs into them run on the inner line there, as wide as their bands.
+            let total = inner.last().map_or(0.0, |&(_, along)| along);
+            let lead = SPLICE_LEAD * slice.settings().road_width;
+            let (x, y) = ((x - lead).fmax(0.0), (y + lead).fmin(total));
             let point = |along: f32| curve.at(if forward { s0 + along } else { s0 - along });
             let mut state = 0;
             for &(p, along) in between {
