@@ -128,9 +128,8 @@ static SILENT_HEARTBEATS: AtomicU32 = AtomicU32::new(0);
 /// instructions, 28 s at 168 MHz).
 const BEATS: u32 = (controller::MAIN_LOOP_SILENCE_US as u64 * BOARD_INSTRUCTIONS_PER_US
     / 1_000 // emulated us: QEMU runs 1 000 instructions an emulated us
-    * (mps2::CLOCK_HZ as u64 / 1_000_000)
-    / (RELOAD as u64 + 1)) as u32
-    + 1;
+    * (mps2::CLOCK_HZ as u64 / 1_000_000))
+    .div_ceil(RELOAD as u64 + 1) as u32;
 /// The SKR 2's instructions a microsecond at most (168 MHz, one a cycle).
 const BOARD_INSTRUCTIONS_PER_US: u64 = 168;
 const _: () = assert!(BEATS == 8);
