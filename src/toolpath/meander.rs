@@ -58,6 +58,11 @@ pub(super) struct Fan<'a> {
     pub chunks: &'a [(Point, Point)],
     /// The MCL segments near the last query ([`Near`]), for the next.
     pub near: &'a RefCell<Near>,
+    /// Whether the keep-out strip nearest to a point lies on a stretch of its curve that no
+    /// arc lays, at least the given arc length from either end of that stretch (the zigzag's
+    /// [`Arcs::bare`](super::zigzag) once its arcs are chosen; `None`: every strip is kept
+    /// for an arc). A stroke's end runs on into such a strip ([`stroke`]).
+    pub bare: Option<&'a dyn Fn(Point, f32) -> bool>,
 }
 
 impl Fan<'_> {
@@ -329,21 +334,39 @@ fn stroke(
         return Ok(false);
     };
     let ws = spacing.fmax(settings.min_width);
+    let half = 0.5 * settings.road_width;
     // Room for the stroke off every keep-out curve's strip (each feature's own material's
     // place, where an arc may run): its edge a road off the feature.
     let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
+    // Where no arc lays the strip, the stroke's edge keeps half a road off the feature (the
+    // printable region's bar) instead, clear of the arcs' round ends either side.
+    let bare_room = half + 0.5 * ws + 2.0 * EDGE_MARGIN;
+    let bare_margin = half + 0.5 * ws;
     let side = |reach: f32, sign: f32| {
         // As far out as the band reaches, short of the strip along the stroke's line (a stroke
         // beside a wall or a hole runs on beside it): the line up to where it first comes
         // within `room` of a feature's edge keeps `room` from every feature, and crosses
         // none (it would meet the edge first). None where `q` itself is within `room`.
-        let free = features_within(slice, q, left_n * sign, room);
-        q + left_n * (sign * reach.fmin(free))
+        let n = left_n * sign;
+        let free = features_within(slice, q, n, room);
+        if reach > free {
+            if let Some(bare) = fan.bare {
+                // Into the strip where no arc runs: up to `bare_room` off the feature, if the
+                // strip beside the new end is bare.
+                let into = features_within(slice, q, n, bare_room);
+                let out = reach.fmin(into);
+                if into > free && bare(q + n * out, bare_margin) {
+                    return (q + n * out, half);
+                }
+            }
+        }
+        (q + n * reach.fmin(free), settings.road_width)
     };
-    let tips = [
+    let ends = [
         side((0.5 * right - 0.5 * ws).fmax(0.0), -1.0),
         side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
     ];
+    let tips = ends.map(|(tip, _)| tip);
     // Each end as wide as the gap to the last stroke's end on its side, where the strokes fan
     // apart (across the MCL's direction), within reach of the strip; the wider end stops
     // short by its extra half width, so its round end keeps to the band.
@@ -352,7 +375,9 @@ fn stroke(
         let gap = state
             .tips
             .map_or(ws, |last| (last[k] - tips[k]).dot(along_mcl).abs());
-        let cap = 2.0 * (fan.clearance(slice, tips[k]) - settings.road_width - 2.0 * EDGE_MARGIN);
+        // Its edge `kept` off the feature: a road, or half a road in a bare strip.
+        let kept = ends[k].1;
+        let cap = 2.0 * (fan.clearance(slice, tips[k]) - kept - 2.0 * EDGE_MARGIN);
         gap.fmin(settings.max_width).fmin(cap).fmax(ws)
     };
     let widths = [tip_width(0), tip_width(1)];

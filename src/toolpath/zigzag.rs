@@ -24,7 +24,7 @@ mod emit;
 mod ends;
 
 use emit::{emit_arc, emit_mcl, inner_end};
-use ends::{end_point, even_out, find, open_pieces, Ends};
+use ends::{end_point, even_out, find, open_pieces, Arcs, Ends};
 
 use super::despike::{finish, Despike};
 use core::cell::RefCell;
@@ -228,6 +228,9 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     let mut chunks: FanChunks = Vec::new();
     fan_boxes(plan, &ends.mcls, &mut boxes, &mut chunks)?;
     let near = RefCell::new(Near::new());
+    // The strips along the curves that no arc lays, which the meanders' strokes may fill.
+    let arcs = Arcs::new(&ends, &curves);
+    let bare = |p: Point, margin: f32| arcs.bare(slice, &ends, &curves, p, margin);
     let fan = Fan {
         me: NONE,
         at: 0,
@@ -235,6 +238,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         boxes: &boxes,
         chunks: &chunks,
         near: &near,
+        bare: Some(&bare),
     };
 
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces,

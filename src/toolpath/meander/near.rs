@@ -408,6 +408,7 @@ mod tests {
                     boxes: &boxes,
                     chunks: &chunks,
                     near: &near,
+                    bare: None,
                 };
                 let pts = plan.points(&plan.mcls[k as usize]);
                 for seg in pts.windows(2) {

@@ -2,6 +2,7 @@
 //! each end lies, the arcs pairing consecutive ends, the separate pieces they make (union-find),
 //! and the parity fix that leaves MCLs out until at most two curves are odd.
 
+use super::emit::arc_of_direction;
 use super::{CURVES, ENDS, NONE};
 use crate::config::MAX_MCLS;
 use crate::error::Limit;
@@ -167,6 +168,71 @@ impl Ends {
     }
 }
 
+/// Which stretches of the keep-out curves the arcs lay, once the pairings and splices are
+/// chosen: stretch `k` of a curve runs from its `k`-th end (in [`Ends::order`]) to the next,
+/// and is laid where an arc passes over it. Elsewhere the strip along the curve (a road wide,
+/// kept for arcs) is nobody's: the strokes of the meanders beside it may run into it
+/// ([`bare`](Self::bare)).
+pub(super) struct Arcs {
+    laid: [bool; ENDS],
+}
+
+impl Arcs {
+    /// The stretches `ends`' arcs pass over.
+    pub(super) fn new(ends: &Ends, curves: &[KeepOut<'_>]) -> Arcs {
+        let mut laid = [false; ENDS];
+        for id in 0..ends.count as u16 {
+            let mate = ends.arc[id as usize];
+            if mate == NONE || mate < id {
+                continue;
+            }
+            let c = ends.curve[id as usize] as usize;
+            let (lo, hi) = ends.ranges[c];
+            let (lo, n) = (lo as usize, (hi - lo) as usize);
+            let (forward, (count, _)) = arc_of_direction(ends, &curves[c], c, id, mate);
+            let from = ends.slot[id as usize] as usize;
+            // The stretches from `id`'s slot to `mate`'s, the way the arc runs.
+            for k in 0..=count {
+                let stretch = if forward {
+                    (from + k) % n
+                } else {
+                    (from + n - 1 - k % n) % n
+                };
+                laid[lo + stretch] = true;
+            }
+        }
+        Arcs { laid }
+    }
+
+    /// Whether the keep-out strip nearest to `p` lies on a stretch no arc lays, at least
+    /// `margin` (arc length) from either end of it: a curve without MCL ends is bare all round.
+    pub(super) fn bare(
+        &self,
+        slice: &Slice,
+        ends: &Ends,
+        curves: &[KeepOut<'_>],
+        p: Point,
+        margin: f32,
+    ) -> bool {
+        let (c, _, _) = slice.nearest_feature(p);
+        let (Some(&(lo, hi)), Some(curve)) = (ends.ranges.get(c), curves.get(c)) else {
+            return false;
+        };
+        let (lo, n) = (lo as usize, (hi - lo) as usize);
+        if n == 0 {
+            return true;
+        }
+        let param = |k: usize| ends.param[ends.order[lo + k] as usize];
+        let s = curve.param_of(p);
+        // The stretch holding `s`: after the last end at or before it, or after the last end
+        // of all where `s` comes before the first.
+        let after = (0..n).rev().find(|&k| param(k) <= s).unwrap_or(n - 1);
+        !self.laid[lo + after]
+            && curve.wrap(s - param(after)) >= margin
+            && curve.wrap(param((after + 1) % n) - s) >= margin
+    }
+}
+
 /// MCL ends per curve (a hole index, or `holes` for the wall) among the `active` MCLs.
 pub(super) fn end_counts(plan: &Plan, holes: usize, active: &[u16]) -> [u16; CURVES] {
     let mut count = [0u16; CURVES];
@@ -301,5 +367,87 @@ pub(super) fn end_point(plan: &Plan, ends: &Ends, id: u16) -> Point {
         pts[0]
     } else {
         pts[pts.len() - 1]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::keep_out::Side;
+    use crate::Settings;
+
+    fn square(lo: f32, hi: f32) -> [Point; 4] {
+        [
+            Point::new(lo, lo),
+            Point::new(hi, lo),
+            Point::new(hi, hi),
+            Point::new(lo, hi),
+        ]
+    }
+
+    #[test]
+    fn the_stretches_an_arc_passes_are_laid_and_the_others_bare() {
+        // A 20 mm square wall (arc length 0 at (0, 0), counter-clockwise), one hole.
+        let hole = square(9.0, 11.0);
+        let holes = [(&hole[..], [0.0, 1.0, 0.0, 0.0])];
+        let slice = Slice::from_contours(
+            &square(0.0, 20.0),
+            [1.0, 0.0, 0.0, 0.0],
+            &holes,
+            Settings::default(),
+        )
+        .unwrap();
+        let half = 0.5 * slice.settings().road_width;
+        let curves = [
+            KeepOut::new(&slice.holes()[0], half, Side::Outside),
+            KeepOut::new(slice.wall(), half, Side::Inside),
+        ];
+        // Four ends on the wall's curve, at 2, 4 (the bottom side), 22 and 24 mm (the right
+        // side: y = 2 and 4); none on the hole's.
+        let mut ends = Ends::empty();
+        ends.count = 4;
+        for (id, s) in [2.0f32, 4.0, 22.0, 24.0].into_iter().enumerate() {
+            ends.curve[id] = 1;
+            ends.param[id] = s;
+            ends.order.push(id as u16).unwrap();
+            ends.slot[id] = id as u16;
+        }
+        ends.ranges.push((0, 0)).unwrap();
+        ends.ranges.push((0, 4)).unwrap();
+        // Arcs 2 -> 4 and 22 -> 24: the stretches between 4 and 22, and from 24 round to 2,
+        // are nobody's.
+        for (a, b) in [(0u16, 1u16), (2, 3)] {
+            ends.arc[a as usize] = b;
+            ends.arc[b as usize] = a;
+        }
+        let arcs = Arcs::new(&ends, &curves);
+        let w = slice.settings().road_width;
+        let bare = |p: Point, margin: f32| arcs.bare(&slice, &ends, &curves, p, margin);
+        // Beside the arcs: laid.
+        assert!(!bare(Point::new(3.0, 0.3), 0.0));
+        assert!(!bare(Point::new(19.7, 3.0), 0.0));
+        // Between them, along the bottom and the right side, and round the far corner.
+        assert!(bare(Point::new(10.0, 0.3), w));
+        assert!(bare(Point::new(19.7, 1.0), w));
+        assert!(bare(Point::new(10.0, 19.7), w));
+        // Too near an arc's end for the margin asked.
+        assert!(!bare(Point::new(4.2, 0.3), w));
+        assert!(bare(Point::new(4.2, 0.3), 0.1));
+        // Nearer the hole than the wall: its curve holds no ends, so it is bare all round.
+        assert!(bare(Point::new(8.5, 10.0), w));
+        // Paired the other way, 24 -> 2 (round the corner at 0, the way that passes over no
+        // end) and 4 -> 22: the stretches laid and bare swap.
+        for (a, b) in [(0u16, 3u16), (1, 2)] {
+            ends.arc[a as usize] = b;
+            ends.arc[b as usize] = a;
+        }
+        let arcs = Arcs::new(&ends, &curves);
+        let bare = |p: (f32, f32)| arcs.bare(&slice, &ends, &curves, Point::new(p.0, p.1), 0.0);
+        for p in [(10.0, 0.3), (19.7, 1.0), (10.0, 19.7), (0.3, 10.0)] {
+            assert!(!bare(p), "{p:?}");
+        }
+        for p in [(3.0, 0.3), (19.7, 3.0)] {
+            assert!(bare(p), "{p:?}");
+        }
     }
 }
