@@ -16,7 +16,8 @@
 //! [`max_width`](crate::Settings::max_width). Where MCLs fan apart (toward the wall, in large
 //! cells) the band outgrows it, and the road fills the band with a *meander* instead
 //! (`meander::meander`): strokes across the band a road apart, each stroke's ends kept a road
-//! off every keep-out curve (where the arcs run), all still inside the one road. The strokes
+//! off every keep-out curve where an arc may run, half a road where none does (a stretch the
+//! pairing leaves between two ends, `ends::Arcs`), all still inside the one road. The strokes
 //! lie on one grid along the whole MCL, whatever the spacing of its vertices. The bands, road
 //! widths and meanders are in the sibling module `meander`.
 

@@ -1,6 +1,7 @@
 //! Walking the joined loops into the layer: each loop from its entry around to its exit,
-//! across the bridges, widening a turn into the gap it leaves before a ridge, with the
-//! composition of the blended field at every vertex.
+//! across the bridges, widening a turn into the gap it leaves before a ridge (or narrowing it
+//! where the turn beyond the ridge lies nearer than a road), with the composition of the
+//! blended field at every vertex.
 
 use super::{
     capacity, nearest, wrap, Frame, OffsetSpiral, OffsetStats, EDGE_DIRECTIONS, FIRST_TURN_MARGIN,
@@ -69,6 +70,24 @@ impl OffsetSpiral {
             material,
             width,
             deposit,
+        }
+    }
+
+    /// The vertex at `p` ending a bridge across between two loops: [`vertex`](Self::vertex)'s,
+    /// but never narrowed: a bridge crosses the gap between two turns along the gradient, and
+    /// a narrowing measured at its end (for a turn running beside the ridge) would thin the
+    /// whole bridge.
+    fn bridge_vertex(&self, slice: &Slice, field: &BlendedField, p: Point) -> Vertex {
+        let w = slice.settings().road_width;
+        let v = self.vertex(slice, field, p, true);
+        if v.width < w {
+            Vertex {
+                at: p,
+                width: w,
+                ..v
+            }
+        } else {
+            v
         }
     }
 
@@ -234,7 +253,7 @@ impl OffsetSpiral {
                         emit_move(
                             slice,
                             sink,
-                            self.vertex(slice, &field, self.at(child, enter), true),
+                            self.bridge_vertex(slice, &field, self.at(child, enter)),
                         )?;
                         self.stack
                             .push(Frame {
@@ -252,7 +271,7 @@ impl OffsetSpiral {
                         // The bridge back.
                         if let Some(f) = self.stack.last() {
                             let p = self.at(f.lp as usize, f.pos);
-                            emit_move(slice, sink, self.vertex(slice, &field, p, true))?;
+                            emit_move(slice, sink, self.bridge_vertex(slice, &field, p))?;
                         }
                     }
                 }
@@ -294,7 +313,8 @@ fn clear_beyond(slice: &Slice, f: usize, d: f32, q: Point, t: f32) -> bool {
 /// loop no join reached, `laid(q, level)` false at its crossing `q`), the road widens the same
 /// way as far as [`Settings::max_width`] allows. The road is never wider than
 /// [`Settings::max_width`], and half its width never exceeds its clearance (`D` grows by `g/2`,
-/// and every other feature is at least that far: it is farther than the ridge).
+/// and every other feature is at least that far: it is farther than the ridge). Where the
+/// ridge lies nearer than half a road, the road narrows instead ([`narrowed`]).
 ///
 /// [`Settings::max_width`]: crate::Settings::max_width
 fn widened(
@@ -347,10 +367,9 @@ fn widened(
             } else {
                 hi = mid;
                 // The ridge found will lie below `hi`, and the features after this one only
-                // lower it: the road is not widened, whatever the rest of the search finds
-                // (the same sum as `g` below, and a float difference never falls as its
-                // first term grows).
-                if hi - 0.5 * w - RIDGE_MARGIN <= 0.0 {
+                // lower it: nearer than [`NARROW_FLOOR`] the road keeps its width, whatever
+                // the rest of the search finds ([`narrowed`]).
+                if hi < NARROW_FLOOR * w {
                     return (p, w);
                 }
             }
@@ -358,7 +377,10 @@ fn widened(
         ridge = lo;
     }
     let g = (ridge - 0.5 * w - RIDGE_MARGIN).fmin(slice.settings().max_width - w);
-    if g <= 0.0 {
+    if g < 0.0 {
+        return narrowed(slice, p, (d, n), ridge, laid);
+    }
+    if g == 0.0 {
         return (p, w);
     }
     // The next turn crosses the ray a road width out: widen only if it was left out, and
@@ -397,4 +419,133 @@ fn widened(
         g *= 0.5;
     }
     (p, w)
+}
+
+/// How nearly the other turn must face a narrowed road's ([`narrowed`]): the cosine of the
+/// largest angle between the two gradients' opposites.
+const FACING: f32 = 0.9;
+/// The nearest ridge, road widths out, at which a road narrows ([`narrowed`]). Nearer, the two
+/// turns are less than half a road apart: the tip of a lens where they converge on a corner
+/// of the ridge, or the two sides of a small loop round a peak of `D`, whose round ends (not
+/// the other turn) cover the ground beyond the ridge there, and narrowed they left it bare.
+/// On 200 random slices narrowing down to the ridge itself (0) lowered the spiral's overfill
+/// by 0.0028 on average but its coverage by 0.0012 (one slice fell below 0.97); see the
+/// README's random slices for this floor's figures.
+const NARROW_FLOOR: f32 = 0.25;
+
+/// A turn's point `p` (at distance `d` from its nearest feature, `n` the unit gradient) whose
+/// ridge lies `ridge` out, nearer than half a road: the same level's turn beyond the ridge (the
+/// other feature's, or another part of the same one) lies less than a road away, and two roads
+/// a road wide would lay the ground between them twice. Where that turn is laid, the road
+/// narrows to the ridge: its inner edge stays where it was (on the turn below's outer edge)
+/// and its outer edge stops [`RIDGE_MARGIN`] short of the ridge, where the other turn,
+/// narrowed the same way, meets it; never narrower than
+/// [`min_width`](crate::Settings::min_width), and not where the ridge is nearer than
+/// [`NARROW_FLOOR`].
+fn narrowed(
+    slice: &Slice,
+    p: Point,
+    (d, n): (f32, Point),
+    ridge: f32,
+    laid: impl Fn(Point, u16, f32) -> bool,
+) -> (Point, f32) {
+    let settings = slice.settings();
+    let w = settings.road_width;
+    let g = (ridge - 0.5 * w - RIDGE_MARGIN).fmax(settings.min_width - w);
+    if g >= 0.0 || ridge < NARROW_FLOOR * w {
+        return (p, w);
+    }
+    // A float-to-int `as` saturates (see `widened`).
+    let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16;
+    // The other turn crosses the ray about twice the ridge's distance out, facing back along
+    // it (near a corner where the turns meet at the ridge at an angle, the ground beyond the
+    // ridge is not the other turn's: narrowing there would leave it bare).
+    let q = p + n * (2.0 * ridge);
+    let (_, _, back) = nearest(slice, q);
+    let len = back.norm();
+    if len < 1e-6 || back.dot(n) > -FACING * len || !laid(q, level, LAID_TOL * w) {
+        return (p, w);
+    }
+    (p + n * (0.5 * g), w + g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Settings;
+
+    /// A 10 mm square wall with a rectangular hole whose left side is at `x`, from y = 2 to 8:
+    /// between x = 0 and `x` the wall's turns and the hole's face each other across the ridge
+    /// at `x / 2`.
+    fn facing(x: f32) -> Slice {
+        let p = Point::new;
+        let wall = [p(0.0, 0.0), p(10.0, 0.0), p(10.0, 10.0), p(0.0, 10.0)];
+        let hole = [p(x, 2.0), p(x + 2.0, 2.0), p(x + 2.0, 8.0), p(x, 8.0)];
+        let holes = [(&hole[..], [0.0, 1.0, 0.0, 0.0])];
+        Slice::from_contours(&wall, [1.0, 0.0, 0.0, 0.0], &holes, Settings::default()).unwrap()
+    }
+
+    /// The wall's turn of level 4 (`w/2 + 4 w` from it) at y = 5.
+    fn turn_point(slice: &Slice) -> Point {
+        let w = slice.settings().road_width;
+        Point::new(0.5 * w + 4.0 * w + FIRST_TURN_MARGIN, 5.0)
+    }
+
+    #[test]
+    fn a_turn_narrows_to_the_ridge_where_the_turn_beyond_it_lies_nearer_than_a_road() {
+        // Ridge at x = 1.95: the wall's level-4 turn (x = 1.803) and the hole's (x = 2.097)
+        // lie 0.294 apart, 0.106 less than a road.
+        let slice = facing(3.9);
+        let w = slice.settings().road_width;
+        let p = turn_point(&slice);
+        let ridge = 1.95 - p.x;
+        let (at, width) = widened(&slice, p, nearest(&slice, p), |_, _, _| true);
+        // The inner edge stays; the outer one stops RIDGE_MARGIN short of the ridge.
+        assert!(
+            (at.x - 0.5 * width - (p.x - 0.5 * w)).abs() < 1e-4,
+            "{at:?} {width}"
+        );
+        assert!(
+            (at.x + 0.5 * width - (1.95 - RIDGE_MARGIN)).abs() < 1e-4,
+            "{at:?} {width}"
+        );
+        assert!((width - (0.5 * w + ridge - RIDGE_MARGIN)).abs() < 1e-4);
+        assert!(width < w && width >= slice.settings().min_width);
+        // Where the turn beyond the ridge was left out, the road keeps its width.
+        assert_eq!(
+            widened(&slice, p, nearest(&slice, p), |_, _, _| false),
+            (p, w)
+        );
+        // And where the ridge is nearer than NARROW_FLOOR (the turns less than half a road
+        // apart).
+        let slice = facing(2.0 * (p.x + 0.8 * NARROW_FLOOR * w));
+        assert_eq!(
+            widened(&slice, p, nearest(&slice, p), |_, _, _| true),
+            (p, w)
+        );
+        let slice = facing(2.0 * (p.x + 1.2 * NARROW_FLOOR * w));
+        assert!(widened(&slice, p, nearest(&slice, p), |_, _, _| true).1 < w);
+    }
+
+    #[test]
+    fn a_turn_widens_into_a_sliver_before_the_ridge_and_keeps_its_width_a_road_from_it() {
+        let w = Settings::default().road_width;
+        // Ridge at x = 2.2, 0.397 beyond the turn: the sliver between the two sides' turns
+        // (0.394 apart edge to edge, less than a road) is shared, each side widening to it.
+        let slice = facing(4.4);
+        let p = turn_point(&slice);
+        let (at, width) = widened(&slice, p, nearest(&slice, p), |_, _, _| false);
+        assert!(
+            (at.x + 0.5 * width - (2.2 - RIDGE_MARGIN)).abs() < 1e-4,
+            "{at:?} {width}"
+        );
+        assert!(width > w);
+        // Ridge exactly half a road beyond the turn (plus the margin): neither.
+        let slice = facing(2.0 * (p.x + 0.5 * w + RIDGE_MARGIN));
+        let (at, width) = widened(&slice, p, nearest(&slice, p), |_, _, _| true);
+        assert!(
+            (width - w).abs() < 1e-4 && at.dist(p) < 1e-4,
+            "{at:?} {width}"
+        );
+    }
 }
