@@ -434,9 +434,9 @@ fn widened(
 /// ([`widened`]): the cosine of the largest angle between the feature's distance gradient
 /// there and at the road. Beyond a ridge between two parts of a feature that face each other
 /// (a star's notch), the gradient points back toward the road: more than a right angle off.
-/// On 200 random slices a right angle took the spiral's median overfill from 0.018 to 0.017
-/// and let 199 meet the bar; 60 degrees (0.5) took it to 0.015 but cost coverage (one slice
-/// at 0.969) and left 198.
+/// On 200 random slices (with the first turns narrowed too, since undone) a right angle took
+/// the spiral's median overfill from 0.018 to 0.017 and let 199 meet the bar; 60 degrees
+/// (0.5) took it to 0.015 but cost coverage (one slice at 0.969) and left 198.
 const OWN_SIDE: f32 = 0.0;
 
 /// How nearly the other turn must face a narrowed road's ([`narrowed`]): the cosine of the
@@ -446,9 +446,10 @@ const FACING: f32 = 0.9;
 /// turns are less than half a road apart: the tip of a lens where they converge on a corner
 /// of the ridge, or the two sides of a small loop round a peak of `D`, whose round ends (not
 /// the other turn) cover the ground beyond the ridge there, and narrowed they left it bare.
-/// On 200 random slices narrowing down to the ridge itself (0) lowered the spiral's overfill
-/// by 0.0028 on average but its coverage by 0.0012 (one slice fell below 0.97); see the
-/// README's random slices for this floor's figures.
+/// On 200 random slices narrowing down to the ridge itself (0; the first turns and the
+/// bridges narrowed too) lowered the spiral's overfill by 0.0028 on average but its coverage
+/// by 0.0012 (one slice fell below 0.97); see the README's random slices for this floor's
+/// figures.
 const NARROW_FLOOR: f32 = 0.25;
 
 /// A turn's point `p` (at distance `d` from its nearest feature, `n` the unit gradient) whose
@@ -458,8 +459,9 @@ const NARROW_FLOOR: f32 = 0.25;
 /// narrows to the ridge: its inner edge stays where it was (on the turn below's outer edge)
 /// and its outer edge stops [`RIDGE_MARGIN`] short of the ridge, where the other turn,
 /// narrowed the same way, meets it; never narrower than
-/// [`min_width`](crate::Settings::min_width), and not where the ridge is nearer than
-/// [`NARROW_FLOOR`].
+/// [`min_width`](crate::Settings::min_width); not where the ridge is nearer than
+/// [`NARROW_FLOOR`], and not on the first turn (on the keep-out curve, in its feature's own
+/// material).
 fn narrowed(
     slice: &Slice,
     p: Point,
@@ -475,6 +477,12 @@ fn narrowed(
     }
     // A float-to-int `as` saturates (see `widened`).
     let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16;
+    // The first turn runs on the keep-out curve in its feature's own material: narrowed, its
+    // centre would move inside the curve, and a move from a blended vertex onto it would
+    // cross the curve in a blend.
+    if level == 0 {
+        return (p, w);
+    }
     // The other turn crosses the ray about twice the ridge's distance out, facing back along
     // it (near a corner where the turns meet at the ridge at an angle, the ground beyond the
     // ridge is not the other turn's: narrowing there would leave it bare).
@@ -543,6 +551,13 @@ mod tests {
         );
         let slice = facing(2.0 * (p.x + 1.2 * NARROW_FLOOR * w));
         assert!(widened(&slice, p, nearest(&slice, p), |_, _, _| true).1 < w);
+        // The first turn, on the keep-out curve, never narrows.
+        let first = Point::new(0.5 * w + FIRST_TURN_MARGIN, 5.0);
+        let slice = facing(2.0 * (first.x + 1.5 * NARROW_FLOOR * w));
+        assert_eq!(
+            widened(&slice, first, nearest(&slice, first), |_, _, _| true),
+            (first, w)
+        );
     }
 
     #[test]
