@@ -388,9 +388,7 @@ fn widened(
     // of the next turn, where it meets another feature's turn at the ridge, the traced turn
     // cuts the corner and passes the ray's point at a distance).
     let next = if ridge >= w {
-        // A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m deep at the
-        // finest road) would only be clipped, never wrapped.
-        let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16 + 1;
+        let level = turn_level(d, w) + 1;
         if laid(p + n * w, level, LAID_TOL * w) {
             return (p, w);
         }
@@ -428,6 +426,13 @@ fn widened(
         g *= 0.5;
     }
     (p, w)
+}
+
+/// The level of the turn at distance `d` from its feature (`w/2 + k w`, less the first turn's
+/// margin, rounded). A float-to-int `as` saturates: a level beyond `u16::MAX` (a slice 650 m
+/// deep at the finest road) would only be clipped, never wrapped.
+fn turn_level(d: f32, w: f32) -> u16 {
+    libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16
 }
 
 /// How nearly a widened road's edge must lie on its own side of its feature's own ridges
@@ -475,8 +480,7 @@ fn narrowed(
     if g >= 0.0 || ridge < NARROW_FLOOR * w {
         return (p, w);
     }
-    // A float-to-int `as` saturates (see `widened`).
-    let level = libm::roundf((d - 0.5 * w - FIRST_TURN_MARGIN) / w).fmax(0.0) as u16;
+    let level = turn_level(d, w);
     // The first turn runs on the keep-out curve in its feature's own material: narrowed, its
     // centre would move inside the curve, and a move from a blended vertex onto it would
     // cross the curve in a blend.

@@ -225,8 +225,10 @@ impl Arcs {
         let param = |k: usize| ends.param[ends.order[lo + k] as usize];
         let s = curve.param_of(p);
         // The stretch holding `s`: after the last end at or before it, or after the last end
-        // of all where `s` comes before the first.
-        let after = (0..n).rev().find(|&k| param(k) <= s).unwrap_or(n - 1);
+        // of all where `s` comes before the first (the curve's ends are sorted by param).
+        let at_or_before =
+            ends.order[lo..lo + n].partition_point(|&id| ends.param[id as usize] <= s);
+        let after = at_or_before.checked_sub(1).unwrap_or(n - 1);
         !self.laid[lo + after]
             && curve.wrap(s - param(after)) >= margin
             && curve.wrap(param((after + 1) % n) - s) >= margin
