@@ -9,10 +9,16 @@
 //! `a -> b -> c` both deposit, turn by more than [`SPIKE_COS`] and the shorter of the two is
 //! under [`SPIKE_SHARE`] of the road width, `b` goes and the road runs `a -> c`, along the
 //! line it had already covered. A chain of spikes goes one vertex at a time.
+//!
+//! The move `a -> c` is new: it tapers from `a`'s width to `c`'s where `a -> b` was laid at
+//! `b`'s, and it cuts the corner `b` turned. Next to a feature's corner that can bring it
+//! nearer the feature than half its width (a meander's tip beside a hole's sharp corner), so
+//! `b` goes only where `a -> c` keeps out of every feature as [`emit_move`](super::emit_move)
+//! keeps a move (no boundary crossed, no keep-out band entered).
 
-use super::{PathSink, Vertex};
+use super::{dip, PathSink, Vertex};
 use crate::geometry::primitives::MinMax;
-use crate::{Error, Limit};
+use crate::{Error, Limit, Slice};
 
 /// A turn counts as a reversal below this cosine (about 172 degrees).
 pub const SPIKE_COS: f32 = -0.99;
@@ -24,18 +30,18 @@ pub const SPIKE_SHARE: f32 = 0.5;
 pub struct Despike<'a, S: PathSink> {
     inner: &'a mut S,
     pending: Option<Vertex>,
-    road_width: f32,
+    slice: &'a Slice,
     /// Vertices dropped.
     pub dropped: u32,
 }
 
 impl<'a, S: PathSink> Despike<'a, S> {
-    /// In front of `inner`, for roads of `road_width` mm.
-    pub fn new(inner: &'a mut S, road_width: f32) -> Despike<'a, S> {
+    /// In front of `inner`, for the layers of `slice`.
+    pub fn new(inner: &'a mut S, slice: &'a Slice) -> Despike<'a, S> {
         Despike {
             inner,
             pending: None,
-            road_width,
+            slice,
             dropped: 0,
         }
     }
@@ -57,7 +63,10 @@ impl<'a, S: PathSink> Despike<'a, S> {
         if lu <= 0.0 || lv <= 0.0 {
             return false;
         }
-        u.dot(v) < SPIKE_COS * lu * lv && lu.fmin(lv) < SPIKE_SHARE * self.road_width
+        u.dot(v) < SPIKE_COS * lu * lv
+            && lu.fmin(lv) < SPIKE_SHARE * self.slice.settings().road_width
+            && !self.slice.segment_crosses_feature(a.at, c.at)
+            && dip(self.slice, *a, *c).is_none()
     }
 }
 
@@ -95,6 +104,20 @@ pub(crate) fn finish<S: PathSink>(d: &mut Despike<'_, S>) -> Result<(), Error> {
 mod tests {
     use super::*;
     use crate::geometry::Point;
+    use crate::{Feature, FeatureId, Settings};
+
+    /// A 20 mm square wall with the hole `hole` in it, roads 0.4 mm.
+    fn slice_with(hole: &[(f32, f32)]) -> Slice {
+        let wall = [(-10.0, -10.0), (10.0, -10.0), (10.0, 10.0), (-10.0, 10.0)]
+            .map(|(x, y)| Point::new(x, y));
+        let wall = Feature::new(FeatureId::Wall, &wall, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let hole: std::vec::Vec<Point> = hole.iter().map(|&(x, y)| Point::new(x, y)).collect();
+        let hole = Feature::new(FeatureId::Hole(0), &hole, [0.0, 1.0, 0.0, 0.0]).unwrap();
+        Slice::new(wall, &[hole], Settings::for_road_width(0.4)).unwrap()
+    }
+
+    /// A hole far from the roads of the tests.
+    const FAR: [(f32, f32); 3] = [(5.0, 5.0), (6.0, 5.0), (5.0, 6.0)];
 
     fn v(x: f32, y: f32) -> Vertex {
         Vertex {
@@ -106,10 +129,15 @@ mod tests {
     }
 
     fn run(pts: &[(f32, f32)]) -> (heapless::Vec<Vertex, 16>, u32) {
+        let vs: std::vec::Vec<Vertex> = pts.iter().map(|&(x, y)| v(x, y)).collect();
+        run_on(&slice_with(&FAR), &vs)
+    }
+
+    fn run_on(slice: &Slice, vs: &[Vertex]) -> (heapless::Vec<Vertex, 16>, u32) {
         let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
-        let mut d = Despike::new(&mut out, 0.4);
-        for &(x, y) in pts {
-            d.push_vertex(v(x, y)).unwrap();
+        let mut d = Despike::new(&mut out, slice);
+        for &x in vs {
+            d.push_vertex(x).unwrap();
         }
         d.finish().unwrap();
         let n = d.dropped;
@@ -143,8 +171,9 @@ mod tests {
         assert_eq!(n, 2, "{out:?}");
         assert_eq!(out.len(), 4, "{out:?}");
         // A travel into the next vertex is never merged away.
+        let slice = slice_with(&FAR);
         let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
-        let mut d = Despike::new(&mut out, 0.4);
+        let mut d = Despike::new(&mut out, &slice);
         for (k, p) in [(0.0, 0.0), (1.05, 0.0), (1.0, 0.0)]
             .into_iter()
             .enumerate()
@@ -155,5 +184,28 @@ mod tests {
         }
         d.finish().unwrap();
         assert_eq!(out.len(), 3);
+    }
+
+    #[test]
+    fn a_spike_stays_where_the_move_past_it_would_enter_a_keep_out_band() {
+        // A road widening from 0.2 mm to 0.4 mm runs 1.1 mm out and 0.1 mm back. Laid
+        // without the spike's tip, it widens over 1 mm instead of 1.1: at x = 0.9 it is half
+        // 0.19 mm wide where it was 0.182, and a hole's corner 0.187 mm off the line is then
+        // inside it.
+        let corner = [(0.9, 0.187), (1.5, 1.0), (0.3, 1.0)];
+        let widths = [0.2, 0.4, 0.4];
+        let vs: std::vec::Vec<Vertex> = [(0.0, 0.0), (1.1, 0.0), (1.0, 0.0)]
+            .iter()
+            .zip(widths)
+            .map(|(&(x, y), width)| Vertex { width, ..v(x, y) })
+            .collect();
+        let slice = slice_with(&corner);
+        assert!(dip(&slice, vs[0], vs[2]).is_some());
+        assert!(dip(&slice, vs[0], vs[1]).is_none() && dip(&slice, vs[1], vs[2]).is_none());
+        let (out, n) = run_on(&slice, &vs);
+        assert_eq!((out.len(), n), (3, 0), "{out:?}");
+        // Away from the corner the same spike goes.
+        let (out, n) = run_on(&slice_with(&FAR), &vs);
+        assert_eq!((out.len(), n), (2, 1), "{out:?}");
     }
 }

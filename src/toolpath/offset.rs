@@ -337,7 +337,7 @@ impl OffsetSpiral {
         sink: &mut impl PathSink,
     ) -> Result<OffsetStats, Error> {
         let mut stats = self.prepare(slice, grid)?;
-        let mut despiked = Despike::new(sink, slice.settings().road_width);
+        let mut despiked = Despike::new(sink, slice);
         self.walk_all(slice, plan, &mut despiked, &mut stats)?;
         finish(&mut despiked)?;
         Ok(stats)

@@ -81,7 +81,7 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
     if slice.holes().is_empty() {
         return Err(Error::NoHoles);
     }
-    let mut despiked = Despike::new(sink, slice.settings().road_width);
+    let mut despiked = Despike::new(sink, slice);
     let stats = zigzag_into(slice, plan, &mut despiked)?;
     finish(&mut despiked)?;
     Ok(stats)
