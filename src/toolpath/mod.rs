@@ -251,7 +251,7 @@ pub(crate) fn emit_move(slice: &Slice, sink: &mut impl PathSink, v: Vertex) -> R
                     },
                 );
             }
-            bend(slice, sink, prev, v, 8, true)
+            bend(slice, sink, prev, v, Depth::FRESH, true)
         }
         _ => emit(sink, v),
     }
@@ -308,14 +308,14 @@ fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Resu
                 deposit: true,
             };
             result = match sink.last_vertex() {
-                Some(last) => bend(slice, sink, last, v, 8, false),
+                Some(last) => bend(slice, sink, last, v, Depth::FRESH, false),
                 None => emit(sink, v),
             };
         }
     });
     result?;
     let last = sink.last_vertex().unwrap_or(a);
-    bend(slice, sink, last, b, 8, false)?;
+    bend(slice, sink, last, b, Depth::FRESH, false)?;
     Ok(true)
 }
 
@@ -324,6 +324,28 @@ fn detour(slice: &Slice, sink: &mut impl PathSink, a: Vertex, b: Vertex) -> Resu
 /// band's edge sags a few micrometres into it, a road a few per cent narrower clears it.
 pub(crate) const NARROWING: f32 = 0.1;
 
+/// How many times [`bend`] halves a move: a move across a feature this many times, and each
+/// piece of it that only sags into a keep-out band as many times again.
+const BEND_DEPTH: u8 = 8;
+
+/// [`bend`]'s halvings left: for a move across a feature, and for one that only sags into a
+/// keep-out band. The pieces of a move across a feature start afresh on the second: a long
+/// chord across a hole's tip spent every halving going round it, and the last piece, a chord
+/// of the keep-out curve round the tip that only sagged into its band, was then travelled (a
+/// start) where two more halvings lay it.
+#[derive(Clone, Copy)]
+struct Depth {
+    across: u8,
+    sag: u8,
+}
+
+impl Depth {
+    const FRESH: Depth = Depth {
+        across: BEND_DEPTH,
+        sag: BEND_DEPTH,
+    };
+}
+
 /// Emits `b` (a depositing move from `a`), bent as [`emit_move`] says; where no bend keeps
 /// out of a feature the move crosses, round it ([`detour`]) if `route` (not on a detour).
 fn bend(
@@ -331,7 +353,7 @@ fn bend(
     sink: &mut impl PathSink,
     a: Vertex,
     b: Vertex,
-    depth: u8,
+    depth: Depth,
     route: bool,
 ) -> Result<(), Error> {
     let half = 0.5 * a.width.fmax(b.width);
@@ -340,7 +362,8 @@ fn bend(
     if !crossing && dip.is_none() {
         return emit(sink, b);
     }
-    if depth == 0 || a.at.dist(b.at) < 0.02 * half {
+    let left = if crossing { depth.across } else { depth.sag };
+    if left == 0 || a.at.dist(b.at) < 0.02 * half {
         // Halving found no bend that keeps the road out, and a break in the road here would
         // be an extrusion start. A move across a feature goes round it ([`detour`]); a move
         // that only sags into a keep-out band (both ends sit on its edge) is laid with its far
@@ -398,9 +421,21 @@ fn bend(
             },
         );
     }
-    bend(slice, sink, a, mid, depth - 1, route)?;
+    // Each piece lexicographically less (across, sag) than the move, so the halving ends.
+    let depth = if crossing {
+        Depth {
+            across: depth.across - 1,
+            sag: BEND_DEPTH,
+        }
+    } else {
+        Depth {
+            sag: depth.sag - 1,
+            ..depth
+        }
+    };
+    bend(slice, sink, a, mid, depth, route)?;
     let mid_emitted = sink.last_vertex().unwrap_or(mid);
-    bend(slice, sink, mid_emitted, b, depth - 1, route)
+    bend(slice, sink, mid_emitted, b, depth, route)
 }
 
 /// `b` narrowed so that the depositing move from `a` keeps out of every keep-out band (as
