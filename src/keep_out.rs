@@ -99,7 +99,25 @@ impl<'a> KeepOut<'a> {
     /// to exactly half a road width on the region's side where another edge is nearer (a
     /// concave stretch of a hole, a sharp corner of the wall).
     pub fn at(&self, s: f32) -> Point {
+        self.at_from(self.base(s))
+    }
+
+    /// [`at`](Self::at) where the curve's point at `s` is reached from the feature's point
+    /// there without crossing the feature; `None` on the side of a notch narrower than a
+    /// road, where the point half a road off every edge along the normal lies beyond the
+    /// notch's other side (past a neighbouring spike of a star, or inside it). The curve has
+    /// no point of its own there: it crosses the notch's mouth.
+    pub fn reachable(&self, s: f32) -> Option<Point> {
         let (q, normal) = self.base(s);
+        let p = self.at_from((q, normal));
+        // From just off the feature's point (a segment from the point itself meets its own
+        // edges).
+        let from = q + normal * (1e-3 * self.half);
+        (!self.feature.segment_meets(from, p)).then_some(p)
+    }
+
+    /// [`at`](Self::at) for the feature's point `q` and the normal `normal` there.
+    fn at_from(&self, (q, normal): (Point, Point)) -> Point {
         let mut p = q + normal * self.half;
         for _ in 0..8 {
             let (clearance, away, near) = self.clearance(p);
@@ -149,7 +167,9 @@ impl<'a> KeepOut<'a> {
     }
 
     /// Calls `f` with the curve's points from `s0` to `s1` (inclusive), going forward
-    /// (increasing `s`, counter-clockwise) or backward, through every vertex in between.
+    /// (increasing `s`, counter-clockwise) or backward, through every vertex in between whose
+    /// point is [`reachable`](Self::reachable) (across the mouth of a notch narrower than a
+    /// road, whose sides have none).
     pub fn arc(&self, s0: f32, s1: f32, forward: bool, mut f: impl FnMut(Point, f32)) {
         let n = self.feature.points().len();
         let span = if forward {
@@ -181,7 +201,9 @@ impl<'a> KeepOut<'a> {
             if d >= span {
                 break;
             }
-            f(self.at(sv), sv);
+            if let Some(p) = self.reachable(sv) {
+                f(p, sv);
+            }
         }
         if span > 1e-6 {
             f(self.at(s1), s1);
@@ -317,5 +339,51 @@ mod tests {
         ]);
         skip_folds(&mut kept, w, |_, _| false);
         assert_eq!(kept.len(), 6);
+    }
+
+    #[test]
+    fn a_notch_narrower_than_a_road_has_no_curve_points_on_its_sides() {
+        use crate::FeatureId;
+        // A 4 mm square hole with a slit 0.2 mm wide and 2 mm deep from its top; roads 0.4 mm.
+        let pts = [
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 4.0),
+            (2.1, 4.0),
+            (2.1, 2.0),
+            (1.9, 2.0),
+            (1.9, 4.0),
+            (0.0, 4.0),
+        ]
+        .map(|(x, y)| Point::new(x, y));
+        let hole = Feature::new(FeatureId::Hole(0), &pts, [0.0, 1.0, 0.0, 0.0]).unwrap();
+        let curve = KeepOut::new(&hole, 0.2, Side::Outside);
+        let s_of = |k: usize| hole.arc_lengths()[k];
+        // The slit's bottom corners' normals point across it, into the hole beyond: no point
+        // of the curve is reached from them. The mouth's corners have theirs.
+        assert!(curve.reachable(s_of(4)).is_none());
+        assert!(curve.reachable(s_of(5)).is_none());
+        assert!(curve.reachable(s_of(3)).is_some() && curve.reachable(s_of(6)).is_some());
+        // Along the top, across the slit: every point given is half a road off the hole and
+        // above the slit, and no chord between two crosses the hole.
+        let (s0, s1) = (s_of(2) + 0.5, s_of(6) + 0.5);
+        let mut got: std::vec::Vec<Point> = std::vec::Vec::new();
+        curve.arc(s0, s1, true, |p, _| got.push(p));
+        assert!(got.len() >= 4, "{got:?}");
+        assert!(got.iter().all(|p| p.y >= 4.0 - 1e-3), "{got:?}");
+        assert!(
+            got.iter()
+                .all(|&p| (hole.signed_distance(p) - 0.2).abs() < 1e-3),
+            "{got:?}"
+        );
+        assert!(
+            got.windows(2).all(|w| !hole.segment_meets(w[0], w[1])),
+            "{got:?}"
+        );
+        // Counter-clockwise along the top is right to left, and so is every step but a
+        // hair's across the cusp over the slit's mouth (its corners' points, each pulled half a
+        // road off the other corner): the bottom corners' points along their normals lay 2 mm
+        // either side, beyond the hole's top.
+        assert!(got.windows(2).all(|w| w[1].x < w[0].x + 0.05), "{got:?}");
     }
 }

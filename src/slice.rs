@@ -431,6 +431,20 @@ impl Feature {
         c * CHUNK..((c + 1) * CHUNK).min(self.points.len())
     }
 
+    /// Whether segment `ab` crosses or touches the feature's boundary.
+    pub(crate) fn segment_meets(&self, a: Point, b: Point) -> bool {
+        let (lo, hi) = (
+            Point::new(a.x.fmin(b.x), a.y.fmin(b.y)),
+            Point::new(a.x.fmax(b.x), a.y.fmax(b.y)),
+        );
+        polyline::boxes_overlap(self.bbox, (lo, hi), 0.0)
+            && self.chunks_near((lo, hi)).any(|edges| {
+                edges
+                    .into_iter()
+                    .any(|(p, q)| primitives::segments_meet(a, b, p, q))
+            })
+    }
+
     /// The edges (start, end) of every chunk whose box meets box `b`, chunk by chunk in the
     /// polygon's order: what a search for edges or vertices within `b` need look at. Each
     /// edge's start is one vertex, so the starts of all chunks are every vertex once.
@@ -1048,21 +1062,10 @@ impl Slice {
     /// The features (holes first, then the wall) whose boundary segment `ab` crosses or
     /// touches.
     pub fn features_crossed(&self, a: Point, b: Point) -> impl Iterator<Item = &Feature> {
-        let (lo, hi) = (
-            Point::new(a.x.fmin(b.x), a.y.fmin(b.y)),
-            Point::new(a.x.fmax(b.x), a.y.fmax(b.y)),
-        );
         self.holes
             .iter()
             .chain(core::iter::once(&self.wall))
-            .filter(move |f| {
-                polyline::boxes_overlap(f.bbox, (lo, hi), 0.0)
-                    && f.chunks_near((lo, hi)).any(|edges| {
-                        edges
-                            .into_iter()
-                            .any(|(p, q)| primitives::segments_meet(a, b, p, q))
-                    })
-            })
+            .filter(move |f| f.segment_meets(a, b))
     }
 
     /// The point of segment `ab` nearest to a feature where that is closer than `clearance`,
