@@ -22,7 +22,7 @@ use crate::{Error, Limit, Slice};
 ///
 /// ```
 /// # use hollowpath::{cells::Bisector, geometry::Point};
-/// let b = Bisector { a: 0, b: 1, points: heapless::Vec::from_slice(&[Point::new(0.0, -1.0), Point::new(0.0, 1.0)]).unwrap() };
+/// let b = Bisector { a: 0, b: 1, points: heapless::Vec::from_slice(&[Point::new(0.0, -1.0), Point::new(0.0, 1.0)]).unwrap(), tolerance: 0.0 };
 /// assert_eq!(b.length(), 2.0);
 /// ```
 #[derive(Clone, Debug, PartialEq)]
@@ -33,6 +33,10 @@ pub struct Bisector {
     pub b: u8,
     /// The polyline.
     pub points: Vec<Point, BISECTOR_POINTS>,
+    /// How far the traced bisector may lie from the polyline, mm: the tolerance it was
+    /// simplified with, from 2 µm, doubled until its points fit [`BISECTOR_POINTS`] (a long,
+    /// winding bisector at fine roads is stored coarser).
+    pub tolerance: f32,
 }
 
 impl Bisector {
@@ -170,11 +174,11 @@ impl Cells {
                 a: a as u8,
                 b: b as u8,
                 points: Vec::new(),
+                tolerance: 0.002,
             };
-            let mut tol = 0.002;
-            while polyline::simplify(scratch, tol, &mut bis.points).is_err() {
-                tol *= 2.0;
-                if tol > 0.1 {
+            while polyline::simplify(scratch, bis.tolerance, &mut bis.points).is_err() {
+                bis.tolerance *= 2.0;
+                if bis.tolerance > 0.1 {
                     return Err(Error::Capacity {
                         limit: Limit::BisectorPoints,
                         feature: None,

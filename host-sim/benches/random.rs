@@ -40,6 +40,15 @@ fn run(r: &RandomSlice) -> Outcome {
         }
     };
     let plan = plan.last_plan();
+    // The plan's own check, as the CLI runs it before it writes anything: a slice whose plan
+    // fails it gets no layers there.
+    if let Err(v) = hollowpath::verify::verify(slice, plan) {
+        return (
+            r.seed,
+            r.description.clone(),
+            vec![Err(format!("verify: {v:?}")); 2],
+        );
+    }
     let cell = slice.settings().road_width / 16.0;
     let mut meter = Meter::new(slice, Options::with_cell(cell));
     let none = |_p: hollowpath::geometry::Point| None;
