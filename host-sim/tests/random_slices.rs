@@ -115,6 +115,29 @@ fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
     }
 }
 
+/// Where a meander's strokes fan apart faster than their ends widen (two small holes in a
+/// wall 40 mm across: strokes 15 mm long round a small hole), strokes between them close the
+/// wedges between their far ends (`meander::fan_parts`). Coverage before: 0.793 and 0.858.
+#[test]
+fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
+    for seed in [26, 153] {
+        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
+        let slice = &r.slice;
+        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let l = layer(slice, planner.last_plan(), Fill::Offset, 0)
+            .unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let mut meter = Meter::new(
+            slice,
+            Options::with_cell(slice.settings().road_width / 16.0),
+        );
+        let m = meter.measure(l.pattern, &l.path, &|_| None);
+        let what = format!("{} ({}): {m:?}", r.description, l.note);
+        println!("{what}");
+        assert!(m.coverage >= 0.9, "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+    }
+}
+
 /// Every plan passes its own check (`verify`), which the CLI runs before it writes anything.
 /// On the first four of these slices (1 in 50 of the benchmark's: 20-30 holes, stars among
 /// them) a joint of two matched halves lay off the stored bisector by more than the check

@@ -228,7 +228,10 @@ pub(super) fn band_at(
 /// the band, from its right edge to its left edge and back, a road apart, advancing along the
 /// MCL. The strokes stand on one grid over the whole MCL (a road apart, evenly), not per move:
 /// an MCL's vertices are mostly nearer each other than a road, and a move shorter than a road
-/// holds one stroke or none. Emits the strokes along the MCL's move from `a` to `b` (arc
+/// holds one stroke or none. Where the strokes fan apart faster than their ends can widen
+/// (far across a large cell, round a small hole), the stretch between two strokes is split
+/// evenly by strokes between them ([`fan_parts`]), narrower at the MCL, so their far ends
+/// stand at most the widest road apart. Emits the strokes along the MCL's move from `a` to `b` (arc
 /// lengths `sa`, `sb` of `len` from the `from` end, materials `ma`, `mb` at its ends),
 /// `state` the meander so far along the MCL.
 #[allow(clippy::too_many_arguments)]
@@ -268,12 +271,33 @@ pub(super) fn meander(
         }
         let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
         let material = along(ma, mb, s, len);
+        let q = a.lerp(b, t);
+        let band = band_at(slice, plan, q, dir, fan);
+        // Where the strokes fan apart faster than their ends widen (a large cell, an MCL
+        // curving round a small hole), strokes between the last and this one, at even steps
+        // along the MCL, close the wedges between their far ends.
+        let parts = fan_parts(slice, q, dir, spacing, band, fan, state);
+        if let (Some(last), true) = (state.last, parts > 1) {
+            for i in 1..parts {
+                let f = i as f32 / parts as f32;
+                let (qi, di) = (last.0.lerp(q, f), last.1.lerp(dir, f));
+                let bi = band_at(slice, plan, qi, di, fan);
+                let mi = along(&last.2, &material, f, 1.0);
+                stroke(
+                    slice,
+                    (qi, di, bi),
+                    spacing / parts as f32,
+                    mi,
+                    fan,
+                    state,
+                    sink,
+                )?;
+            }
+        }
         state.in_meander = stroke(
             slice,
-            plan,
-            a.lerp(b, t),
-            dir,
-            spacing,
+            (q, dir, band),
+            spacing / parts as f32,
             material,
             fan,
             state,
@@ -293,6 +317,9 @@ pub(super) struct Strokes {
     pub in_meander: bool,
     /// The ends (right, left) of the last stroke, while the strokes run on.
     tips: Option<[Point; 2]>,
+    /// The last stroke's point on the MCL, the MCL's direction there and its material, while
+    /// the strokes run on.
+    last: Option<(Point, Point, crate::Material)>,
 }
 
 impl Strokes {
@@ -302,25 +329,25 @@ impl Strokes {
             right_first: true,
             in_meander: false,
             tips: None,
+            last: None,
         }
     }
 }
 
-/// One stroke of a [`meander`] across the band at `q` (the MCL's direction `dir`), `spacing`
-/// from the last, if the band there is wider than the widest road: from the side
+/// One stroke of a [`meander`] across the band `band` at `q` (the MCL's direction `dir`),
+/// `spacing` from the last, if the band there is wider than the widest road: from the side
 /// `state.right_first` names to the other, which the next stroke then starts from. Returns
 /// whether the band is that wide (whether `q` belongs to a meander).
 ///
 /// The strokes stand a road apart along the MCL; where they fan apart across a wide band (the
 /// MCL curves away from that side), each end is as wide as the gap to the last stroke's end
 /// on its side, up to [`max_width`](crate::Settings::max_width) and a road off the strip, and
-/// the stroke tapers from it to `spacing` at the MCL, so the fan leaves no wedges bare.
+/// the stroke tapers from it to `spacing` at the MCL, so the fan leaves no wedges bare; where
+/// that is not wide enough, [`meander`] lays strokes between ([`fan_parts`]).
 #[allow(clippy::too_many_arguments)]
 fn stroke(
     slice: &Slice,
-    plan: &Plan,
-    q: Point,
-    dir: Point,
+    (q, dir, band): (Point, Point, Option<Band>),
     spacing: f32,
     material: crate::Material,
     fan: &Fan<'_>,
@@ -328,44 +355,12 @@ fn stroke(
     sink: &mut impl PathSink,
 ) -> Result<bool, Error> {
     let settings = slice.settings();
-    let band = band_at(slice, plan, q, dir, fan);
-    let Some((left_n, left, right)) = band.filter(|_| too_wide(slice, band)) else {
+    let Some(ends) = stroke_ends(slice, q, spacing, band, fan) else {
         state.tips = None;
+        state.last = None;
         return Ok(false);
     };
     let ws = spacing.fmax(settings.min_width);
-    let half = 0.5 * settings.road_width;
-    // Room for the stroke off every keep-out curve's strip (each feature's own material's
-    // place, where an arc may run): its edge a road off the feature.
-    let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
-    // Where no arc lays the strip, the stroke's edge keeps half a road off the feature (the
-    // printable region's bar) instead, clear of the arcs' round ends either side.
-    let bare_room = half + 0.5 * ws + 2.0 * EDGE_MARGIN;
-    let bare_margin = half + 0.5 * ws;
-    let side = |reach: f32, sign: f32| {
-        // As far out as the band reaches, short of the strip along the stroke's line (a stroke
-        // beside a wall or a hole runs on beside it): the line up to where it first comes
-        // within `room` of a feature's edge keeps `room` from every feature, and crosses
-        // none (it would meet the edge first). None where `q` itself is within `room`.
-        let n = left_n * sign;
-        let free = features_within(slice, q, n, room);
-        if reach > free {
-            if let Some(bare) = fan.bare {
-                // Into the strip where no arc runs: up to `bare_room` off the feature, if the
-                // strip beside the new end is bare.
-                let into = features_within(slice, q, n, bare_room);
-                let out = reach.fmin(into);
-                if into > free && bare(q + n * out, bare_margin) {
-                    return (q + n * out, half);
-                }
-            }
-        }
-        (q + n * reach.fmin(free), settings.road_width)
-    };
-    let ends = [
-        side((0.5 * right - 0.5 * ws).fmax(0.0), -1.0),
-        side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
-    ];
     let tips = ends.map(|(tip, _)| tip);
     // Each end as wide as the gap to the last stroke's end on its side, where the strokes fan
     // apart (across the MCL's direction), within reach of the strip; the wider end stops
@@ -414,7 +409,93 @@ fn stroke(
     emit_move(slice, sink, at(order[1]))?;
     state.right_first = !state.right_first;
     state.tips = Some(tips);
+    state.last = Some((q, dir, material));
     Ok(true)
+}
+
+/// The ends (right, left) of a stroke across the band `band` at `q`, `spacing` from the last,
+/// each with how far its edge keeps off the feature there (a road, or half a road in a bare
+/// strip); `None` where the band is no wider than the widest road ([`too_wide`]).
+fn stroke_ends(
+    slice: &Slice,
+    q: Point,
+    spacing: f32,
+    band: Option<Band>,
+    fan: &Fan<'_>,
+) -> Option<[(Point, f32); 2]> {
+    let settings = slice.settings();
+    let (left_n, left, right) = band.filter(|_| too_wide(slice, band))?;
+    let ws = spacing.fmax(settings.min_width);
+    let half = 0.5 * settings.road_width;
+    // Room for the stroke off every keep-out curve's strip (each feature's own material's
+    // place, where an arc may run): its edge a road off the feature.
+    let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
+    // Where no arc lays the strip, the stroke's edge keeps half a road off the feature (the
+    // printable region's bar) instead, clear of the arcs' round ends either side.
+    let bare_room = half + 0.5 * ws + 2.0 * EDGE_MARGIN;
+    let bare_margin = half + 0.5 * ws;
+    let side = |reach: f32, sign: f32| {
+        // As far out as the band reaches, short of the strip along the stroke's line (a stroke
+        // beside a wall or a hole runs on beside it): the line up to where it first comes
+        // within `room` of a feature's edge keeps `room` from every feature, and crosses
+        // none (it would meet the edge first). None where `q` itself is within `room`.
+        let n = left_n * sign;
+        let free = features_within(slice, q, n, room);
+        if reach > free {
+            if let Some(bare) = fan.bare {
+                // Into the strip where no arc runs: up to `bare_room` off the feature, if the
+                // strip beside the new end is bare.
+                let into = features_within(slice, q, n, bare_room);
+                let out = reach.fmin(into);
+                if into > free && bare(q + n * out, bare_margin) {
+                    return (q + n * out, half);
+                }
+            }
+        }
+        (q + n * reach.fmin(free), settings.road_width)
+    };
+    Some([
+        side((0.5 * right - 0.5 * ws).fmax(0.0), -1.0),
+        side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
+    ])
+}
+
+/// Most strokes a fanning stretch between two strokes is split into ([`fan_parts`]).
+const FAN_PARTS: usize = 3;
+
+/// Into how many even steps the stretch of MCL from the last stroke to the stroke at `q`
+/// goes: as many as it takes for the strokes' far ends to stand at most
+/// [`max_width`](crate::Settings::max_width) apart (each end is as wide as the gap to the
+/// last, up to that), at most [`FAN_PARTS`]. Where the strokes run parallel it is 1.
+fn fan_parts(
+    slice: &Slice,
+    q: Point,
+    dir: Point,
+    spacing: f32,
+    band: Option<Band>,
+    fan: &Fan<'_>,
+    state: &Strokes,
+) -> usize {
+    let (Some(last), Some(_)) = (state.tips, state.last) else {
+        return 1;
+    };
+    let Some(ends) = stroke_ends(slice, q, spacing, band, fan) else {
+        return 1;
+    };
+    let len = dir.norm();
+    if len < 1e-6 {
+        return 1;
+    }
+    let along_mcl = dir * (1.0 / len);
+    let gap = (0..2)
+        .map(|k| libm::fabsf((last[k] - ends[k].0).dot(along_mcl)))
+        .fold(0.0, f32::max);
+    let parts = libm::ceilf(gap / slice.settings().max_width);
+    if parts > 1.0 {
+        (parts as usize).min(FAN_PARTS)
+    } else {
+        1
+    }
 }
 
 /// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
