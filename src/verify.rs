@@ -118,7 +118,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     .cells
                     .between(m.from as usize, j as usize)
                     .map(|(_, b)| polyline::project(&b.points, p).2 - b.tolerance)
-                    .fold(f32::INFINITY, f32::min);
+                    .fold(f32::INFINITY, |a, b| a.fmin(b));
                 let nearest_two = || {
                     let (_, nearest, _, second) = slice.nearest_holes(p);
                     nearest >= d - 10.0 * ON_CURVE_TOL && second >= d - 10.0 * ON_CURVE_TOL

@@ -489,7 +489,7 @@ fn fan_parts(
     let along_mcl = dir * (1.0 / len);
     let gap = (0..2)
         .map(|k| libm::fabsf((last[k] - ends[k].0).dot(along_mcl)))
-        .fold(0.0, f32::max);
+        .fold(0.0, |a, b| a.fmax(b));
     let parts = libm::ceilf(gap / slice.settings().max_width);
     if parts > 1.0 {
         (parts as usize).min(FAN_PARTS)
