@@ -9,7 +9,7 @@
 //! two; the rest is the benchmark's to report.
 
 use host_sim::layers::{layer, Fill};
-use host_sim::metrics::{Meter, Options};
+use host_sim::metrics::{LayerMetrics, Meter, Options};
 use host_sim::random_slice::{draw_many, Draw};
 
 #[test]
@@ -62,6 +62,25 @@ fn default_layers_on_random_slices_as_printed() {
     }
 }
 
+/// Layer `k` (0 the zigzag, 1 the offset spiral) of random slice `seed`, measured as
+/// printed: its metrics, its note, and both with the slice's description, to print and to
+/// name a failure.
+fn measured(seed: u64, k: usize) -> (LayerMetrics, String, String) {
+    let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
+    let slice = &r.slice;
+    let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
+    let l = layer(slice, planner.last_plan(), Fill::Offset, k)
+        .unwrap_or_else(|e| panic!("{}: {e}", r.description));
+    let mut meter = Meter::new(
+        slice,
+        Options::with_cell(slice.settings().road_width / 16.0),
+    );
+    let m = meter.measure(l.pattern, &l.path, &|_| None);
+    let what = format!("{} ({}): {m:?}", r.description, l.note);
+    println!("{what}");
+    (m, l.note, what)
+}
+
 /// Where two features come within about one and a half road widths, the region a turn fits in
 /// narrows to a channel thinner than the distance grid's spacing; the traced turn closes on
 /// both sides of it and the pocket beyond became an island loop reached by travel (6 of the 7
@@ -71,19 +90,8 @@ fn default_layers_on_random_slices_as_printed() {
 #[test]
 fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
     for seed in [222, 164, 227] {
-        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
-        let slice = &r.slice;
-        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let l = layer(slice, planner.last_plan(), Fill::Offset, 1)
-            .unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let mut meter = Meter::new(
-            slice,
-            Options::with_cell(slice.settings().road_width / 16.0),
-        );
-        let m = meter.measure(l.pattern, &l.path, &|_| None);
-        let what = format!("{} ({}): {m:?}", r.description, l.note);
-        println!("{what}");
-        assert!(l.note.contains(", 0 jump(s)"), "{what}");
+        let (m, note, what) = measured(seed, 1);
+        assert!(note.contains(", 0 jump(s)"), "{what}");
         assert_eq!(m.starts, 1, "{what}");
         assert!(m.spill < 5e-4, "{what}");
         assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
@@ -98,18 +106,7 @@ fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
 #[test]
 fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
     for seed in [72, 12, 103] {
-        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
-        let slice = &r.slice;
-        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let l = layer(slice, planner.last_plan(), Fill::Offset, 0)
-            .unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let mut meter = Meter::new(
-            slice,
-            Options::with_cell(slice.settings().road_width / 16.0),
-        );
-        let m = meter.measure(l.pattern, &l.path, &|_| None);
-        let what = format!("{} ({}): {m:?}", r.description, l.note);
-        println!("{what}");
+        let (m, _, what) = measured(seed, 0);
         assert_eq!(m.starts, 1, "{what}");
         assert!(m.spill < 5e-4, "{what}");
     }
@@ -121,18 +118,7 @@ fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
 #[test]
 fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
     for seed in [26, 153] {
-        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
-        let slice = &r.slice;
-        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let l = layer(slice, planner.last_plan(), Fill::Offset, 0)
-            .unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let mut meter = Meter::new(
-            slice,
-            Options::with_cell(slice.settings().road_width / 16.0),
-        );
-        let m = meter.measure(l.pattern, &l.path, &|_| None);
-        let what = format!("{} ({}): {m:?}", r.description, l.note);
-        println!("{what}");
+        let (m, _, what) = measured(seed, 0);
         assert!(m.coverage >= 0.9, "{what}");
         assert!(m.spill < 5e-4, "{what}");
     }
