@@ -99,7 +99,7 @@ impl<'a> KeepOut<'a> {
     /// to exactly half a road width on the region's side where another edge is nearer (a
     /// concave stretch of a hole, a sharp corner of the wall).
     pub fn at(&self, s: f32) -> Point {
-        self.at_from(self.base(s))
+        self.at_from(self.base(s)).0
     }
 
     /// [`at`](Self::at) where the curve's point at `s` is reached from the feature's point
@@ -109,25 +109,27 @@ impl<'a> KeepOut<'a> {
     /// no point of its own there: it crosses the notch's mouth.
     pub fn reachable(&self, s: f32) -> Option<Point> {
         let (q, normal) = self.base(s);
-        let p = self.at_from((q, normal));
+        let (p, offset) = self.at_from((q, normal));
         // From just off the feature's point (a segment from the point itself meets its own
-        // edges).
+        // edges). The plain offset needs no test: an edge it crossed would lie nearer its end
+        // than the half road it is from `q`.
         let from = q + normal * (1e-3 * self.half);
-        (!self.feature.segment_meets(from, p)).then_some(p)
+        (offset || !self.feature.segment_meets(from, p)).then_some(p)
     }
 
-    /// [`at`](Self::at) for the feature's point `q` and the normal `normal` there.
-    fn at_from(&self, (q, normal): (Point, Point)) -> Point {
+    /// [`at`](Self::at) for the feature's point `q` and the normal `normal` there, and whether
+    /// it is the plain offset `q + half normal` (every edge at least half a road from it).
+    fn at_from(&self, (q, normal): (Point, Point)) -> (Point, bool) {
         let mut p = q + normal * self.half;
-        for _ in 0..8 {
+        for k in 0..8 {
             let (clearance, away, near) = self.clearance(p);
             if clearance >= self.half - 1e-5 {
-                return p;
+                return (p, k == 0);
             }
             p = near + away * self.half;
         }
         if self.clearance(p).0 >= self.half - 1e-5 {
-            return p;
+            return (p, false);
         }
         // Pulled to and fro between two edges of a sharp corner: go out along the normal
         // instead, as far as it takes for every edge to be half a road width away (the miter
@@ -146,7 +148,7 @@ impl<'a> KeepOut<'a> {
                 lo = mid;
             }
         }
-        q + normal * hi
+        (q + normal * hi, false)
     }
 
     /// Distance from `p` to the feature on the region's side (positive in the region), the

@@ -273,36 +273,24 @@ pub(super) fn meander(
         let material = along(ma, mb, s, len);
         let q = a.lerp(b, t);
         let band = band_at(slice, plan, q, dir, fan);
+        let mut ends = stroke_ends(slice, q, spacing, band, fan);
         // Where the strokes fan apart faster than their ends widen (a large cell, an MCL
         // curving round a small hole), strokes between the last and this one, at even steps
-        // along the MCL, close the wedges between their far ends.
-        let parts = fan_parts(slice, q, dir, spacing, band, fan, state);
+        // along the chord between their points on the MCL, close the wedges between their far
+        // ends; all of them then stand a part of the spacing apart at the MCL.
+        let parts = fan_parts(slice, dir, ends, state);
+        let part = spacing / parts as f32;
         if let (Some(last), true) = (state.last, parts > 1) {
             for i in 1..parts {
                 let f = i as f32 / parts as f32;
-                let (qi, di) = (last.0.lerp(q, f), last.1.lerp(dir, f));
-                let bi = band_at(slice, plan, qi, di, fan);
-                let mi = along(&last.2, &material, f, 1.0);
-                stroke(
-                    slice,
-                    (qi, di, bi),
-                    spacing / parts as f32,
-                    mi,
-                    fan,
-                    state,
-                    sink,
-                )?;
+                let (qi, di) = (last.at.lerp(q, f), last.dir.lerp(dir, f));
+                let ei = stroke_ends(slice, qi, part, band_at(slice, plan, qi, di, fan), fan);
+                let mi = along(&last.material, &material, f, 1.0);
+                stroke(slice, (qi, di), ei, part, mi, fan, state, sink)?;
             }
+            ends = stroke_ends(slice, q, part, band, fan);
         }
-        state.in_meander = stroke(
-            slice,
-            (q, dir, band),
-            spacing / parts as f32,
-            material,
-            fan,
-            state,
-            sink,
-        )?;
+        state.in_meander = stroke(slice, (q, dir), ends, part, material, fan, state, sink)?;
         k += step;
     }
     Ok(())
@@ -315,11 +303,22 @@ pub(super) struct Strokes {
     pub right_first: bool,
     /// Whether the last sample along the MCL was a stroke.
     pub in_meander: bool,
-    /// The ends (right, left) of the last stroke, while the strokes run on.
-    tips: Option<[Point; 2]>,
-    /// The last stroke's point on the MCL, the MCL's direction there and its material, while
-    /// the strokes run on.
-    last: Option<(Point, Point, crate::Material)>,
+    /// The last stroke, while the strokes run on.
+    last: Option<Last>,
+}
+
+/// The last stroke of a meander: where the next one's ends widen to ([`stroke`]) and where
+/// strokes between the two start from ([`fan_parts`]).
+#[derive(Clone, Copy, Debug)]
+struct Last {
+    /// Its ends (right, left).
+    tips: [Point; 2],
+    /// Its point on the MCL.
+    at: Point,
+    /// The MCL's direction there.
+    dir: Point,
+    /// Its composition.
+    material: crate::Material,
 }
 
 impl Strokes {
@@ -328,14 +327,13 @@ impl Strokes {
         Strokes {
             right_first: true,
             in_meander: false,
-            tips: None,
             last: None,
         }
     }
 }
 
-/// One stroke of a [`meander`] across the band `band` at `q` (the MCL's direction `dir`),
-/// `spacing` from the last, if the band there is wider than the widest road: from the side
+/// One stroke of a [`meander`] at `q` (the MCL's direction `dir`), `spacing` from the last,
+/// between `ends` ([`stroke_ends`]), if the band there is wider than the widest road: from the side
 /// `state.right_first` names to the other, which the next stroke then starts from. Returns
 /// whether the band is that wide (whether `q` belongs to a meander).
 ///
@@ -347,7 +345,8 @@ impl Strokes {
 #[allow(clippy::too_many_arguments)]
 fn stroke(
     slice: &Slice,
-    (q, dir, band): (Point, Point, Option<Band>),
+    (q, dir): (Point, Point),
+    ends: Option<[(Point, f32); 2]>,
     spacing: f32,
     material: crate::Material,
     fan: &Fan<'_>,
@@ -355,8 +354,7 @@ fn stroke(
     sink: &mut impl PathSink,
 ) -> Result<bool, Error> {
     let settings = slice.settings();
-    let Some(ends) = stroke_ends(slice, q, spacing, band, fan) else {
-        state.tips = None;
+    let Some(ends) = ends else {
         state.last = None;
         return Ok(false);
     };
@@ -368,8 +366,8 @@ fn stroke(
     let along_mcl = dir * (1.0 / dir.norm());
     let tip_width = |k: usize| {
         let gap = state
-            .tips
-            .map_or(ws, |last| (last[k] - tips[k]).dot(along_mcl).abs());
+            .last
+            .map_or(ws, |last| (last.tips[k] - tips[k]).dot(along_mcl).abs());
         // Its edge `kept` off the feature: a road, or half a road in a bare strip.
         let kept = ends[k].1;
         let cap = 2.0 * (fan.clearance(slice, tips[k]) - kept - 2.0 * EDGE_MARGIN);
@@ -408,8 +406,12 @@ fn stroke(
     }
     emit_move(slice, sink, at(order[1]))?;
     state.right_first = !state.right_first;
-    state.tips = Some(tips);
-    state.last = Some((q, dir, material));
+    state.last = Some(Last {
+        tips,
+        at: q,
+        dir,
+        material,
+    });
     Ok(true)
 }
 
@@ -463,23 +465,13 @@ fn stroke_ends(
 /// Most strokes a fanning stretch between two strokes is split into ([`fan_parts`]).
 const FAN_PARTS: usize = 3;
 
-/// Into how many even steps the stretch of MCL from the last stroke to the stroke at `q`
-/// goes: as many as it takes for the strokes' far ends to stand at most
-/// [`max_width`](crate::Settings::max_width) apart (each end is as wide as the gap to the
-/// last, up to that), at most [`FAN_PARTS`]. Where the strokes run parallel it is 1.
-fn fan_parts(
-    slice: &Slice,
-    q: Point,
-    dir: Point,
-    spacing: f32,
-    band: Option<Band>,
-    fan: &Fan<'_>,
-    state: &Strokes,
-) -> usize {
-    let (Some(last), Some(_)) = (state.tips, state.last) else {
-        return 1;
-    };
-    let Some(ends) = stroke_ends(slice, q, spacing, band, fan) else {
+/// Into how many even steps the stretch of MCL from the last stroke to the next, whose ends
+/// are `ends` ([`stroke_ends`]; `dir` the MCL's direction there), goes: as many as it takes
+/// for the strokes' far ends to stand at most [`max_width`](crate::Settings::max_width)
+/// apart (each end is as wide as the gap to the last, up to that), at most [`FAN_PARTS`].
+/// Where the strokes run parallel it is 1.
+fn fan_parts(slice: &Slice, dir: Point, ends: Option<[(Point, f32); 2]>, state: &Strokes) -> usize {
+    let (Some(last), Some(ends)) = (state.last, ends) else {
         return 1;
     };
     let len = dir.norm();
@@ -488,7 +480,7 @@ fn fan_parts(
     }
     let along_mcl = dir * (1.0 / len);
     let gap = (0..2)
-        .map(|k| libm::fabsf((last[k] - ends[k].0).dot(along_mcl)))
+        .map(|k| libm::fabsf((last.tips[k] - ends[k].0).dot(along_mcl)))
         .fold(0.0, |a, b| a.fmax(b));
     let parts = libm::ceilf(gap / slice.settings().max_width);
     if parts > 1.0 {
