@@ -973,20 +973,55 @@ impl Slice {
     }
 
     /// The nearest and second-nearest hole to `p` with their signed distances
-    /// (`(i, d_i, j, d_j)`; `j == i` and `d_j` infinite with a single hole).
+    /// (`(i, d_i, j, d_j)`; `j == i` and `d_j` infinite with a single hole). Of equal
+    /// distances the lower-numbered hole comes first.
+    ///
+    /// The two holes whose boxes are nearest are measured first, then every other hole whose
+    /// box lies within the second distance so far plus [`polygon::rounding_slack`] (a hole
+    /// skipped can neither come nearer nor tie): the answer is the two least `(d, k)` pairs,
+    /// whatever the order the holes are measured in.
     pub fn nearest_holes(&self, p: Point) -> (usize, f32, usize, f32) {
         let mut best = (0, f32::INFINITY, 0, f32::INFINITY);
-        for (k, h) in self.holes.iter().enumerate() {
-            if polygon::bbox_distance(h.bbox, p) >= best.3 {
-                continue;
-            }
-            let d = h.signed_distance(p);
-            if d < best.1 {
-                best = (k, d, best.0, best.1);
-            } else if d < best.3 {
+        let offer = |k: usize, d: f32, best: &mut (usize, f32, usize, f32)| {
+            if d < best.1 || (d == best.1 && k < best.0) {
+                *best = (k, d, best.0, best.1);
+            } else if d < best.3 || (d == best.3 && k < best.2) {
                 best.2 = k;
                 best.3 = d;
             }
+        };
+        // The two nearest boxes (of equal box distances the lower-numbered hole); with two
+        // holes or fewer, every hole is measured anyway.
+        let (first, second) = if self.holes.len() <= 2 {
+            (0, 1)
+        } else {
+            let mut two = [(usize::MAX, f32::INFINITY); 2];
+            for (k, h) in self.holes.iter().enumerate() {
+                let b = polygon::bbox_distance2(h.bbox, p);
+                if b < two[0].1 || two[0].0 == usize::MAX {
+                    two = [(k, b), two[0]];
+                } else if b < two[1].1 || two[1].0 == usize::MAX {
+                    two[1] = (k, b);
+                }
+            }
+            (two[0].0, two[1].0)
+        };
+        for k in [first, second] {
+            if let Some(h) = self.holes.get(k) {
+                offer(k, h.signed_distance(p), &mut best);
+            }
+        }
+        for (k, h) in self.holes.iter().enumerate() {
+            if k == first || k == second {
+                continue;
+            }
+            // (A box farther than a non-positive limit: `p` lies inside two holes, which
+            // validation refuses, and no third can be nearer.)
+            let limit = best.3 + polygon::rounding_slack(p, h.bbox);
+            if limit <= 0.0 || polygon::bbox_distance2(h.bbox, p) >= limit * limit {
+                continue;
+            }
+            offer(k, h.signed_distance(p), &mut best);
         }
         if best.3 == f32::INFINITY {
             best.2 = best.0;

@@ -439,6 +439,59 @@ proptest! {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// `Slice::nearest_holes` measures the two holes with the nearest boxes first and skips
+    /// the others by their boxes; it must answer exactly as the plain search over every hole
+    /// in order (a hole taking first place only when strictly nearer, second place likewise):
+    /// the same two holes and the same bits of distance, wherever the point lies (in and
+    /// around the wall, inside holes, on their vertices and edges, far outside).
+    #[test]
+    fn nearest_holes_answers_as_the_plain_search(
+        rx in 9.0f32..17.0,
+        ry in 9.0f32..17.0,
+        wall_wobble in 0.0f32..0.15,
+        holes in proptest::collection::vec(hole_spec(), 1..9),
+        queries in proptest::collection::vec((-1.6f32..1.6, -1.6f32..1.6, 0usize..512, 0u8..4), 96),
+    ) {
+        let slice = random_slice(rx, ry, wall_wobble, &holes, 0.4);
+        prop_assume!(slice.is_some());
+        let slice = slice.unwrap();
+        for (qx, qy, k, kind) in queries {
+            let free = Point::new(qx * rx, qy * ry);
+            let f = slice.holes()[k % slice.holes().len()].points();
+            let (a, b) = (f[k % f.len()], f[(k + 1) % f.len()]);
+            let p = match kind {
+                0 => free,
+                1 => a + (b - a) * 0.5,
+                2 => a,
+                _ => a + (free - a) * 1e-3,
+            };
+            let mut plain = (0, f32::INFINITY, 0, f32::INFINITY);
+            for (i, h) in slice.holes().iter().enumerate() {
+                let d = h.signed_distance(p);
+                if d < plain.1 {
+                    plain = (i, d, plain.0, plain.1);
+                } else if d < plain.3 {
+                    plain.2 = i;
+                    plain.3 = d;
+                }
+            }
+            if plain.3 == f32::INFINITY {
+                plain.2 = plain.0;
+            }
+            let got = slice.nearest_holes(p);
+            prop_assert_eq!((got.0, got.2), (plain.0, plain.2), "holes at {:?}", p);
+            prop_assert_eq!(
+                (got.1.to_bits(), got.3.to_bits()),
+                (plain.1.to_bits(), plain.3.to_bits()),
+                "distances at {:?}", p
+            );
+        }
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig::with_cases(12))]
 
     /// `BlendedField::at` looks at the MCL nearest to its last query first and skips MCLs by
