@@ -125,6 +125,11 @@ struct Loop {
     /// The site that joins it to the loop it was reached from (`NONE` for a root).
     parent: u16,
     visited: bool,
+    /// When it was reached: how many loops were reached before it (`visits`).
+    order: u16,
+    /// Unreached: every loop reached before this many (by `order`) was tried for a relaxed
+    /// join to it and gave none ([`relaxed_join`](Self::relaxed_join)).
+    tried: u16,
     /// Small: laid only if a join reaches it.
     optional: bool,
 }
@@ -215,6 +220,8 @@ pub struct OffsetSpiral {
     /// on. An index, not a slice: a pointer would make the initial value non-zero, and the
     /// firmware's static (97 KiB) would be stored in flash as `.data` instead of zeroed `.bss`.
     gaps_from: u8,
+    /// Loops reached so far by the joins being made (each loop's `order`).
+    visits: u16,
     /// The slice the loops and joins above were prepared for (its [`Prepared`] key) and
     /// the figures of that preparation: [`build`](Self::build) on the same slice again
     /// only walks them.
@@ -313,6 +320,7 @@ impl OffsetSpiral {
             stack: Vec::new(),
             queue: Vec::new(),
             gaps_from: 0,
+            visits: 0,
             prepared: None,
         }
     }

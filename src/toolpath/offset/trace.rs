@@ -274,6 +274,8 @@ impl OffsetSpiral {
                 bbox,
                 parent: NONE,
                 visited: false,
+                order: NONE,
+                tried: 0,
                 optional: length < OPTIONAL_LOOP_ROADS * w,
             })
             .map_err(|_| capacity(Limit::ContourLoops))?;
