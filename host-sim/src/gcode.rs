@@ -14,7 +14,7 @@
 use std::f64::consts::PI;
 use std::fmt::Write;
 
-use hollowpath::config::CHANNELS;
+use hollowpath::config::{CHANNELS, MAX_COORD_MM};
 use hollowpath::geometry::Point;
 use hollowpath::toolpath::moves::{path_moves, Move};
 use hollowpath::toolpath::{Pattern, Vertex};
@@ -279,11 +279,30 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                     x += ax.unwrap_or(0.0);
                     y += ay.unwrap_or(0.0);
                 }
+                let limit = f64::from(MAX_COORD_MM);
+                for (axis, v) in [('X', x), ('Y', y)] {
+                    if v.abs() > limit {
+                        return Err(format!(
+                            "line {line_no}: {axis} goes to {v} mm, outside the {limit} mm \
+                             either side of the origin that a slice and the printer use"
+                        ));
+                    }
+                }
                 if layers.is_empty() {
                     layers.push((None, Vec::new()));
                 }
                 let layer = &mut layers.last_mut().expect("a layer is open").1;
-                let deposit = extrudes && !layer.is_empty();
+                // A layer's first move that extrudes lays its road from where the nozzle was:
+                // that point starts the layer.
+                if extrudes && layer.is_empty() {
+                    layer.push(Vertex {
+                        at: Point::new(px as f32, py as f32),
+                        material,
+                        width: road_width as f32,
+                        deposit: false,
+                    });
+                }
+                let deposit = extrudes;
                 let len = (x - px).hypot(y - py);
                 let r = 0.5 * filament;
                 let width = if deposit && len > 1e-9 {

@@ -314,6 +314,58 @@ pub enum SimError {
     Deadline(u32),
     /// A layer's path could not be built.
     Path(hollowpath::Error),
+    /// The layer takes more steps than the virtual printer records.
+    TooManySteps {
+        /// Steps of the X and Y axes the layer's moves take, at least.
+        steps: f64,
+    },
+    /// The layer takes longer to print than the virtual printer runs.
+    TooLong {
+        /// Seconds the layer's moves take at least, at the printer's speeds and
+        /// accelerations.
+        seconds: f64,
+    },
+}
+
+/// Most X and Y steps one simulated layer may take: every step is two pin edges of 16 bytes
+/// in the trace (a 100 mm slice at 0.4 mm roads, about 20 m of road at 400 steps/mm, is 11 M).
+pub const MAX_LAYER_STEPS: f64 = 32e6;
+/// Longest a simulated layer may take to print, s (the virtual clock runs every 1 ms segment
+/// of it; the four_holes zigzag at the default printer takes 264 s).
+pub const MAX_LAYER_SECONDS: f64 = 24.0 * 3600.0;
+
+/// Refuses a layer the virtual printer would take too long or too much memory to run: its
+/// X and Y steps, and a lower bound of its print time (each move at most at its speed, and
+/// from rest to rest at most at the lesser of the X and Y accelerations).
+fn check_size(cfg: &PrinterConfig, moves: &[Move]) -> Result<(), SimError> {
+    let (sx, sy) = (
+        f64::from(cfg.axes[0].steps_per_mm),
+        f64::from(cfg.axes[1].steps_per_mm),
+    );
+    let accel = f64::from(cfg.axes[0].max_accel.min(cfg.axes[1].max_accel));
+    let (mut steps, mut seconds) = (0.0f64, 0.0f64);
+    for m in moves {
+        let (dx, dy) = (
+            f64::from(m.to.x) - f64::from(m.from.x),
+            f64::from(m.to.y) - f64::from(m.from.y),
+        );
+        steps += dx.abs() * sx + dy.abs() * sy;
+        let len = dx.hypot(dy);
+        let speed = f64::from(if m.deposit {
+            cfg.print_speed
+        } else {
+            cfg.travel_speed
+        });
+        // Rest to rest at `accel`: no faster than half the way accelerating, half braking.
+        seconds += (len / speed).max(2.0 * (len / accel).sqrt());
+    }
+    if steps > MAX_LAYER_STEPS {
+        return Err(SimError::TooManySteps { steps });
+    }
+    if seconds > MAX_LAYER_SECONDS {
+        return Err(SimError::TooLong { seconds });
+    }
+    Ok(())
 }
 
 impl std::fmt::Display for SimError {
@@ -324,6 +376,21 @@ impl std::fmt::Display for SimError {
             SimError::Unfinished(s) => write!(f, "the machine did not finish (state {s:?})"),
             SimError::Deadline(dt) => write!(f, "an alarm {dt} ticks ahead"),
             SimError::Path(e) => write!(f, "layer path: {e}"),
+            SimError::TooManySteps { steps } => write!(
+                f,
+                "the layer takes {:.1} M steps of X and Y, more than the virtual printer \
+                 records ({:.0} M): simulate a smaller slice, or a printer with fewer steps_per_mm",
+                steps / 1e6,
+                MAX_LAYER_STEPS / 1e6
+            ),
+            SimError::TooLong { seconds } => write!(
+                f,
+                "the layer takes at least {:.1} h to print at the printer's speeds and \
+                 accelerations, more than the virtual printer runs ({:.0} h): raise print_speed, \
+                 travel_speed or max_accel, or simulate a smaller slice",
+                seconds / 3600.0,
+                MAX_LAYER_SECONDS / 3600.0
+            ),
         }
     }
 }
@@ -415,6 +482,7 @@ pub fn run_layer_counted(
     z: f32,
 ) -> Result<(Trace, Counters), SimError> {
     let mut p = VirtualPrinter::new(cfg)?;
+    check_size(cfg, moves)?;
     let start = p.board.take_trace();
     let before = p.machine.counters();
     p.run(moves, z)?;

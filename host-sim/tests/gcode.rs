@@ -257,4 +257,25 @@ fn malformed_gcode_is_refused_with_its_line() {
     let err = parse("M165 A0 B0 C0 D0\n").unwrap_err();
     assert!(err.contains("line 1"), "{err}");
     assert!(parse("").unwrap().is_empty());
+    // A position no slice and no printer holds (it used to be measured along its 2e9 mm).
+    let err = parse("G90\nG0 X1e9 Y1e9\nG1 X-1e9 Y5 E1\n").unwrap_err();
+    assert!(err.contains("line 2") && err.contains("X goes to"), "{err}");
+    let err = parse("G91\nG0 X600\nG0 X600\n").unwrap_err();
+    assert!(err.contains("line 3"), "{err}");
+}
+
+#[test]
+fn a_layer_whose_first_move_extrudes_lays_it_from_where_the_nozzle_was() {
+    // One move in all, extruding: its road runs from the origin (where a file starts) to
+    // (10, 0); a new layer's first move runs from where the last layer ended.
+    let layers = parse("M83\nG1 X10 Y0 E1\n; layer 1\nG1 Z0.6\nG1 X10 Y5 E0.5\n").unwrap();
+    assert_eq!(layers.len(), 2);
+    let l0 = &layers[0].1;
+    assert_eq!(l0.len(), 2);
+    assert_eq!((l0[0].at, l0[0].deposit), (Point::new(0.0, 0.0), false));
+    assert_eq!((l0[1].at, l0[1].deposit), (Point::new(10.0, 0.0), true));
+    let l1 = &layers[1].1;
+    assert_eq!(l1.len(), 2);
+    assert_eq!((l1[0].at, l1[0].deposit), (Point::new(10.0, 0.0), false));
+    assert_eq!((l1[1].at, l1[1].deposit), (Point::new(10.0, 5.0), true));
 }

@@ -381,6 +381,81 @@ fn bad_printer_files_are_refused_naming_the_key() {
 }
 
 #[test]
+fn a_layer_too_long_or_too_large_to_simulate_is_refused_before_it_runs() {
+    // A printer crawling at a micrometre a second (it ran for hours), and a slice 2 m across
+    // at 10 mm roads (its step trace filled 8 GiB of memory and aborted).
+    let out = tmp("size");
+    std::fs::write(out.join("slow.json"), r#"{"print_speed": 1e-6}"#).unwrap();
+    let o = hollowpath()
+        .args(["simulate", SLICE, "--layers", "1", "--printer"])
+        .arg(out.join("slow.json"))
+        .arg("--out")
+        .arg(out.join("o"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("to print at the printer's speeds") && stderr.contains("print_speed"),
+        "{stderr}"
+    );
+    assert!(!out.join("o").join("simulation.json").exists());
+    let circle: Vec<String> = (0..24)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 24.0;
+            format!("[{:.4}, {:.4}]", 20.0 * a.cos(), 20.0 * a.sin())
+        })
+        .collect();
+    let huge = format!(
+        r#"{{"outer": {{"points": [[-999, -999], [999, -999], [999, 999], [-999, 999]],
+                         "material": [1, 0, 0, 0]}},
+            "holes": [{{"points": [{}], "material": [0, 1, 0, 0]}}],
+            "settings": {{"road_width": 10}}}}"#,
+        circle.join(", ")
+    );
+    std::fs::write(out.join("huge.json"), huge).unwrap();
+    let o = hollowpath()
+        .args(["simulate"])
+        .arg(out.join("huge.json"))
+        .args(["--layers", "1", "--out"])
+        .arg(out.join("h"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("M steps of X and Y") && stderr.contains("steps_per_mm"),
+        "{stderr}"
+    );
+    assert!(!out.join("h").join("simulation.json").exists());
+}
+
+#[test]
+fn a_slice_without_a_hollow_feature_simulates_as_offset_spirals() {
+    // As `plan` lays it, and the controller's job now prints it.
+    let out = tmp("wall");
+    std::fs::write(
+        out.join("wall.json"),
+        r#"{"outer": {"points": [[0, 0], [12, 0], [12, 8], [0, 8]], "material": [1, 0, 0, 0]},
+            "holes": []}"#,
+    )
+    .unwrap();
+    let o = hollowpath()
+        .args(["simulate"])
+        .arg(out.join("wall.json"))
+        .args(["--layers", "2", "--out"])
+        .arg(out.join("o"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("o").join("simulation.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(doc["layers"].as_array().map(|l| l.len()), Some(2), "{doc}");
+}
+
+#[test]
 fn a_printer_file_sets_every_key_and_keeps_the_defaults() {
     let cfg = printer_file::parse("{}").unwrap();
     assert_eq!(cfg, PrinterConfig::default());

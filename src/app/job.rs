@@ -28,7 +28,8 @@ use crate::toolpath::{PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
 /// Builds layer `index`'s path into `sink`: the zigzag on even layers, the offset spiral on
-/// odd ones (its distance grid in `grid`, the planner's lent field memory on a controller).
+/// odd ones and on every layer of a slice without a hollow feature (its distance grid in
+/// `grid`, the planner's lent field memory on a controller).
 pub fn layer_path(
     slice: &Slice,
     plan: &Plan,
@@ -37,7 +38,9 @@ pub fn layer_path(
     index: usize,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
-    if index % 2 == 0 {
+    // A slice without a hollow feature has no MCLs to zigzag along: every layer is the
+    // offset spiral (as the host lays it).
+    if index % 2 == 0 && !slice.holes().is_empty() {
         zigzag(slice, plan, sink).map(|_| ())
     } else {
         offset.build(slice, plan, grid, sink).map(|_| ())
