@@ -168,6 +168,34 @@ impl Limit {
         }
     }
 
+    /// What to change in the slice or its settings to plan within this limit.
+    const fn remedy(self) -> &'static str {
+        match self {
+            Limit::Holes => "merge or leave out hollow features, or split the slice",
+            Limit::Vertices => "simplify the contour (raise simplify_tolerance) or split the slice",
+            Limit::GridNodes | Limit::BoundaryNodes | Limit::PathVertices => {
+                "use a wider road_width or split the slice"
+            }
+            Limit::Bisectors
+            | Limit::BisectorPoints
+            | Limit::BranchPoints
+            | Limit::BisectorSeeds => {
+                "use fewer hollow features or smoother outlines (raise \
+                 simplify_tolerance), or split the slice"
+            }
+            Limit::Halves | Limit::Mcls | Limit::HalfPoolPoints => {
+                "use a wider road_width (fewer MCLs) or fewer hollow features, or split the slice"
+            }
+            Limit::TracePoints | Limit::HalfPoints => {
+                "an outline too winding for an MCL to follow from it: smooth it (raise \
+                 simplify_tolerance, or fewer, blunter spikes) or use a wider road_width"
+            }
+            Limit::ContourPoints | Limit::ContourLoops | Limit::ContourSites => {
+                "use a wider road_width or smoother outlines, or split the slice"
+            }
+        }
+    }
+
     const fn what(self) -> &'static str {
         match self {
             Limit::Holes => "hollow features",
@@ -438,9 +466,10 @@ impl fmt::Display for Error {
                 }
                 write!(
                     f,
-                    "capacity exceeded: more than {} {}",
+                    "capacity exceeded: more than {} {}: {}",
                     limit.value(),
-                    limit.what()
+                    limit.what(),
+                    limit.remedy()
                 )
             }
         }

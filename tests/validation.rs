@@ -386,9 +386,9 @@ fn slice_level_errors() {
 }
 
 #[cfg(not(feature = "large"))]
-const MCLS_MESSAGE: &str = "capacity exceeded: more than 512 material changing lines";
+const MCLS_MESSAGE: &str = "capacity exceeded: more than 512 material changing lines: use a wider road_width (fewer MCLs) or fewer hollow features, or split the slice";
 #[cfg(feature = "large")]
-const MCLS_MESSAGE: &str = "capacity exceeded: more than 8192 material changing lines";
+const MCLS_MESSAGE: &str = "capacity exceeded: more than 8192 material changing lines: use a wider road_width (fewer MCLs) or fewer hollow features, or split the slice";
 
 #[test]
 fn messages_name_feature_and_reason() {

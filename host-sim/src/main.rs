@@ -739,13 +739,20 @@ fn run_simulation(
     let mut digest = None;
     if let Some(count) = job_layers {
         let layers16 = u16::try_from(count).map_err(|_| "too many layers".to_string())?;
-        let uploaded = host_sim::link_client::as_uploaded(slice, layers16)
-            .map_err(|e| format!("the slice as uploaded: {e}"))?;
-        let up_planner =
-            host_sim::plan(&uploaded).map_err(|e| format!("planning the uploaded slice: {e}"))?;
+        // (The controller would refuse what fails here: say so in those terms.)
+        const RECEIVED: &str = "the slice as the controller receives it, every coordinate rounded \
+             to a whole micrometre (the layers above are the unrounded slice's)";
+        let uploaded = host_sim::link_client::as_uploaded(slice, layers16).map_err(|e| {
+            format!("{RECEIVED}: {e}; the controller would refuse it: move vertices that lie within a micrometre or two of another edge apart")
+        })?;
+        let up_planner = host_sim::plan(&uploaded).map_err(|e| {
+            format!("{RECEIVED}: {e}; the controller could not plan it (to simulate the unrounded layers alone, export them with `plan --gcode` and simulate that file with `--gcode`)")
+        })?;
         let up_plan = up_planner.last_plan();
         let counted = host_sim::virtual_printer::run_job_counted(cfg, &uploaded, up_plan, count)
-            .map_err(|e| format!("job: {e}"))?;
+            .map_err(|e| {
+                format!("the controller's job over {count} layer(s), on the virtual printer: {e}")
+            })?;
         for (k, c) in counted.iter().enumerate() {
             telemetry.push(simulate::telemetry_json(k, c, channels));
         }

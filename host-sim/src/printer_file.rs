@@ -270,7 +270,13 @@ fn float(v: &Value, key: &str) -> Result<f32, PrinterFileError> {
 }
 
 fn whole(v: &Value, key: &str, max: u64) -> Result<u64, PrinterFileError> {
-    match v.as_u64() {
+    // A whole number written with an exponent or a point (`1e9`, `2.0`) is JSON's float.
+    let exact = v.as_u64().or_else(|| {
+        v.as_f64()
+            .filter(|x| x.fract() == 0.0 && (0.0..=max as f64).contains(x))
+            .map(|x| x as u64)
+    });
+    match exact {
         Some(x) if x <= max => Ok(x),
         _ => Err(key_err(
             key,
@@ -338,6 +344,15 @@ fn channel(v: &Value, key: &str, ch: &mut ChannelConfig) -> Result<(), PrinterFi
                 format!("{} points, at most {CURVE_POINTS}", points.len()),
             ));
         }
+        if points.len() < 2 {
+            return Err(key_err(
+                &at,
+                format!(
+                    "{} point(s): a curve runs from [0, 0] to [1, 1], at least those two",
+                    points.len()
+                ),
+            ));
+        }
         let mut curve = heapless::Vec::new();
         for (i, p) in points.iter().enumerate() {
             let pk = format!("{at}[{i}]");
@@ -352,8 +367,12 @@ fn channel(v: &Value, key: &str, ch: &mut ChannelConfig) -> Result<(), PrinterFi
                 duty: float(d, &pk)?,
                 flow: float(q, &pk)?,
             };
-            // At most CURVE_POINTS points (checked above).
-            let _ = curve.push(point);
+            curve.push(point).map_err(|_| {
+                key_err(
+                    &at,
+                    format!("{} points, at most {CURVE_POINTS}", points.len()),
+                )
+            })?;
         }
         ch.curve = curve;
     }

@@ -263,7 +263,12 @@ fn settings(v: Option<&Value>) -> Result<Settings, SliceFileError> {
     // A value beyond f32 is out of range, not infinite.
     let float = |id: SettingId| -> Result<Option<f32>, SliceFileError> {
         match number(id)? {
-            Some(x) if x.abs() > f32::MAX as f64 => Err(out_of_range(id, x).into()),
+            // (Said here: the core's error holds an f32, which would say `inf`.)
+            Some(x) if x.abs() > f32::MAX as f64 => Err(format_err(format!(
+                "setting {}: {x:e} is out of range ({})",
+                id.key(),
+                id.allowed()
+            ))),
             x => Ok(x.map(|x| x as f32)),
         }
     };

@@ -348,6 +348,19 @@ fn bad_printer_files_are_refused_naming_the_key() {
             "channel[0].curve",
         ),
         (r#"{"step_pulse_ns": 1.5}"#, "step_pulse_ns"),
+        // Whole, written as JSON's float, and out of range: said so, not "not whole".
+        (
+            r#"{"step_pulse_ns": 1e9}"#,
+            "step_pulse_ns: 1000000000 ns is out of range",
+        ),
+        (
+            r#"{"layer_height": 1e6}"#,
+            "layer_height: 1000000 is out of range",
+        ),
+        (
+            r#"{"channel": [{"curve": []}]}"#,
+            "channel[0].curve: 0 point(s): a curve runs from [0, 0] to [1, 1]",
+        ),
         (r#"{"home": [0, 0]}"#, "home"),
     ] {
         let err = printer_file::parse(text).unwrap_err().to_string();

@@ -257,6 +257,12 @@ fn a_huge_coordinate_is_out_of_range_not_infinite() {
 }
 
 #[test]
+fn a_huge_setting_is_out_of_range_as_written_not_infinite() {
+    let e = err(&slice(SQUARE, &[SMALL], r#""w_n": 1e308"#));
+    assert_eq!(e, "setting w_n: 1e308 is out of range (0 to 16)");
+}
+
+#[test]
 fn a_bow_tie_hole_is_self_intersecting() {
     let e = err(&slice(SQUARE, &["[[0,0],[2,2],[2,0],[0,2]]"], ""));
     assert!(e.contains("hole 0: edges 0 and 2 intersect"), "{e}");

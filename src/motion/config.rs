@@ -330,12 +330,13 @@ impl PrinterConfig {
                 return Err(PrinterError::Speed { key, value });
             }
         }
-        // Longer than the whole range is not a homing move (and its steps fit a u32).
-        if self.homing_travel > 2.0 * super::planner::MAX_POSITION_MM {
-            return Err(PrinterError::Speed {
-                key: "homing_travel",
-                value: self.homing_travel,
-            });
+        for (key, value) in [
+            ("homing_travel", self.homing_travel),
+            ("layer_height", self.layer_height),
+        ] {
+            if upper_bound(key).is_some_and(|max| value > max) {
+                return Err(PrinterError::Speed { key, value });
+            }
         }
         if self.channels == 0 || self.channels as usize > CHANNELS {
             return Err(PrinterError::Channels {
@@ -394,6 +395,20 @@ impl PrinterConfig {
             }
         }
         Ok(())
+    }
+}
+
+/// Thickest layer a printer may be set to lay, mm: a bioprinter's are 0.1 to 1 mm (a layer of
+/// 10^6 mm put the first move out of range, refused as it ran).
+pub const MAX_LAYER_HEIGHT_MM: f32 = 10.0;
+
+/// The largest value a positive setting `key` may take, where it has one: longer than the
+/// whole range is not a homing move (and its steps fit a u32); a layer no printer lays.
+pub(crate) fn upper_bound(key: &str) -> Option<f32> {
+    match key {
+        "homing_travel" => Some(2.0 * super::planner::MAX_POSITION_MM),
+        "layer_height" => Some(MAX_LAYER_HEIGHT_MM),
+        _ => None,
     }
 }
 

@@ -141,9 +141,12 @@ impl fmt::Display for PrinterError {
                 "axes.{}.max_accel: {value} mm/s^2 is not a positive finite number",
                 axis(a)
             ),
-            PrinterError::Speed { key, value } => {
-                write!(f, "{key}: {value} is not a positive finite number")
-            }
+            PrinterError::Speed { key, value } => match super::config::upper_bound(key) {
+                Some(max) if value.is_finite() && value > 0.0 => {
+                    write!(f, "{key}: {value} is out of range (at most {max})")
+                }
+                _ => write!(f, "{key}: {value} is not a positive finite number"),
+            },
             PrinterError::Home { axis: a } => write!(
                 f,
                 "home.{}: not a finite number within {} mm",
