@@ -339,6 +339,25 @@ fn a_file_that_is_not_stl_or_ends_early_is_refused() {
         stl::parse(b"plain words"),
         Err(ModelError::NotStl(_))
     ));
+    // An ASCII model's bad number is named with its line; keywords in upper case are read.
+    let bad = ascii.replacen("vertex ", "vertex abc ", 1);
+    let line = bad.lines().position(|l| l.contains("abc")).unwrap() + 1;
+    match stl::parse(bad.as_bytes()) {
+        Err(ModelError::NotStl(m)) => {
+            assert_eq!(m, format!("line {line}: `abc` is not a number"))
+        }
+        other => panic!("{other:?}"),
+    }
+    let far = ascii.replacen("vertex ", "vertex 1e39 ", 1);
+    match stl::parse(far.as_bytes()) {
+        Err(ModelError::NotStl(m)) => assert!(
+            m.starts_with(&format!("line {line}: coordinate 1e39 is out of range")),
+            "{m}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    let upper = stl::parse(ascii.to_ascii_uppercase().as_bytes()).unwrap();
+    assert_eq!(upper, stl::parse(ascii.as_bytes()).unwrap());
     let missing =
         run_err(hollowpath().args(["slice", "--layer-height", "0.3", "/nonexistent/x.stl"]));
     assert!(

@@ -41,7 +41,11 @@ fn binary_length_matches(bytes: &[u8]) -> Option<u64> {
 /// binary (even if its header begins with `solid`, as some exporters write); otherwise it
 /// must be ASCII (`solid ...`). Anything else is refused, naming why.
 pub fn parse(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
-    let ascii = bytes.starts_with(b"solid") && bytes.get(5).is_none_or(|c| c.is_ascii_whitespace());
+    // Keywords in any case (some exporters write `SOLID` ... `ENDSOLID`).
+    let ascii = bytes
+        .get(..5)
+        .is_some_and(|w| w.eq_ignore_ascii_case(b"solid"))
+        && bytes.get(5).is_none_or(|c| c.is_ascii_whitespace());
     let triangles = if binary_length_matches(bytes).is_some() {
         if ascii {
             // stl_io takes a file that starts with "solid " for ASCII: hide the word.
@@ -58,11 +62,14 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
                 e.valid_up_to()
             ))
         })?;
+        let lower = text.to_ascii_lowercase();
+        let text = lower.as_str();
         if !text.contains("endsolid") {
             return Err(ModelError::Truncated(
                 "the ASCII model ends before \"endsolid\"".into(),
             ));
         }
+        check_ascii_numbers(text)?;
         // `solid` followed by a newline: stl_io wants "solid " with a space.
         let fixed;
         let text = if text.starts_with("solid ") {
@@ -107,6 +114,37 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<RawTriangle>, ModelError> {
         }
     }
     Ok(triangles)
+}
+
+/// The numbers of an ASCII model's `vertex` and `facet normal` lines, checked before the
+/// reader (whose errors name no line): the first that is not a number, or lies beyond the
+/// coordinates a slice holds, is named with its line.
+fn check_ascii_numbers(text: &str) -> Result<(), ModelError> {
+    let limit = f64::from(hollowpath::config::MAX_COORD_MM);
+    for (n, line) in text.lines().enumerate() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let numbers = match words.as_slice() {
+            ["vertex", rest @ ..] => rest,
+            ["facet", "normal", rest @ ..] => rest,
+            _ => continue,
+        };
+        let vertex = words[0] == "vertex";
+        for word in numbers {
+            let Ok(x) = word.parse::<f64>() else {
+                return Err(ModelError::NotStl(format!(
+                    "line {}: `{word}` is not a number",
+                    n + 1
+                )));
+            };
+            if !x.is_finite() || (vertex && x.abs() > limit) {
+                return Err(ModelError::NotStl(format!(
+                    "line {}: coordinate {word} is out of range (a model lies within {limit} mm of the origin)",
+                    n + 1
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Whether the first kilobyte is printable text (a binary STL's header may be text, but its
