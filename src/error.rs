@@ -366,6 +366,10 @@ pub enum Error {
         /// The feature concerned, where there is one.
         feature: Option<FeatureId>,
     },
+    /// No turn of road fits inside the wall: the region half a road inside it is too small
+    /// to lay even one turn (a slice narrower than about a road). (Last: the link's messages
+    /// number the variants.)
+    WallNoRoom,
 }
 
 impl fmt::Display for Error {
@@ -459,6 +463,10 @@ impl fmt::Display for Error {
                 } else {
                     "field grid"
                 }
+            ),
+            Error::WallNoRoom => f.write_str(
+                "the wall: no road fits inside it (the slice is about a road wide or \
+                 narrower): use a narrower road_width, or leave this slice out",
             ),
             Error::Capacity { limit, feature } => {
                 if let Some(feature) = feature {

@@ -192,6 +192,34 @@ fn an_invalid_slice_exits_non_zero_with_one_line() {
 }
 
 #[test]
+fn a_slice_too_small_for_one_road_is_refused_not_laid_empty() {
+    // A 0.5 mm square at 0.4 mm roads, no hole: it planned 'successfully' with nothing laid.
+    let dir = tmp("tiny");
+    std::fs::create_dir_all(&dir).unwrap();
+    let tiny = dir.join("tiny.json");
+    std::fs::write(
+        &tiny,
+        r#"{"outer": {"points": [[0,0],[0.5,0],[0.5,0.5],[0,0.5]], "material": [1,0,0,0]},
+            "holes": []}"#,
+    )
+    .unwrap();
+    let st = hollowpath()
+        .args(["plan"])
+        .arg(&tiny)
+        .arg("--out")
+        .arg(dir.join("o"))
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(
+        err.contains("no road fits inside it") && err.contains("road_width"),
+        "{err}"
+    );
+    assert!(!dir.join("o").join("metrics.json").exists());
+}
+
+#[test]
 fn layer_counts_out_of_range_are_refused_before_any_work() {
     let out = tmp("layer-count");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");

@@ -304,6 +304,31 @@ fn an_open_model_is_refused_naming_the_open_edge() {
 }
 
 #[test]
+fn an_island_too_small_for_a_road_is_left_out_and_said() {
+    // A 0.5 mm cube at 0.4 mm roads: it 'sliced' to nothing laid, without a word.
+    let dir = tmp("tiny");
+    let cube = Scaffold {
+        outline: vec![[0.0, 0.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]],
+        height: 0.5,
+        channels: Vec::new(),
+    };
+    let p = write(&dir, "tiny.stl", &stl::to_binary(&cube.triangles()));
+    let out = run_ok(
+        hollowpath()
+            .args(["slice", "--layer-height", "0.3", "--out"])
+            .arg(dir.join("out"))
+            .arg(&p),
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("island(s) left out"), "{said}");
+    let metrics = std::fs::read_to_string(dir.join("out").join("metrics.json")).unwrap();
+    assert!(
+        metrics.contains("no road fits inside this island"),
+        "{metrics}"
+    );
+}
+
+#[test]
 fn a_file_that_is_not_stl_or_ends_early_is_refused() {
     let dir = tmp("notstl");
     let good = stl::to_binary(&cylinder(1, 0.6).triangles());

@@ -366,6 +366,10 @@ impl OffsetSpiral {
         let mut stats = OffsetStats::default();
         self.sample(slice, grid)?;
         self.trace_all(slice, grid, &mut stats)?;
+        // Nothing to lay (the holes' own refusals come from the planner first).
+        if self.loops.is_empty() {
+            return Err(Error::WallNoRoom);
+        }
         self.join(slice, &mut stats)?;
         self.prepared = Some((key, stats));
         Ok(stats)

@@ -110,7 +110,18 @@ fn plan_island(
     let plan = planner.last_plan();
     // `layers::layer` picks the pattern by the index: odd is the offset spiral.
     let pick = if previews.spiral_only { 1 } else { layer.index };
-    let mut built = layers::layer(slice, plan, Fill::Offset, pick).map_err(fail)?;
+    // An island about a road wide or narrower (the tip of a cone, a sliver at a model's top)
+    // holds no road: it is left out of the part, said in its note, not the part refused.
+    let mut built = match layers::layer(slice, plan, Fill::Offset, pick) {
+        Err(hollowpath::Error::WallNoRoom) if slice.holes().is_empty() => layers::Layer {
+            index: layer.index,
+            pattern: hollowpath::toolpath::Pattern::Spiral,
+            path: Vec::new(),
+            note: "left out: no road fits inside this island (about a road wide or narrower)"
+                .into(),
+        },
+        other => other.map_err(fail)?,
+    };
     built.index = layer.index;
     let field = BlendedField::new(slice, plan);
     let field_fn = |p| field.at(p);

@@ -317,6 +317,16 @@ fn write_outputs(
         worst.2,
         worst.3
     ));
+    let left_out = planned
+        .iter()
+        .flat_map(|l| &l.islands)
+        .filter(|i| i.path.is_empty())
+        .count();
+    if left_out > 0 {
+        said.push(format!(
+            "warning: {left_out} island(s) left out: no road fits inside them (about a road wide or narrower; metrics.json notes which); a narrower --road-width lays them"
+        ));
+    }
     said.push(format!(
         "wrote {}/slices/layer-NNNN.json, {}metrics.json, {}",
         out.display(),
