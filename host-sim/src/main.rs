@@ -441,6 +441,10 @@ fn run(
     if let Some(g) = gcode_path {
         staged.check(g)?;
     }
+    // An earlier run's layers beyond this run's count would sit beside its metrics.
+    staged.own(out, |name| {
+        host_sim::staged::layer_file(name, &[".json", ".svg", ".png", "-deposit.png"])
+    });
     let mut write = |path: &Path, bytes: &[u8]| staged.write(path, bytes);
     let slice = &file.slice;
     let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
@@ -637,6 +641,9 @@ fn run_simulation(
     input: Option<&Path>,
 ) -> Result<(), String> {
     let mut staged = Staged::new(input);
+    staged.own(out, |name| {
+        host_sim::staged::layer_file(name, &["-simulated.png", "-simulated-deposit.png"])
+    });
     let slice = &file.slice;
     let planner = host_sim::plan(slice).map_err(|e| format!("planning failed: {e}"))?;
     let plan = planner.last_plan();

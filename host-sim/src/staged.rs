@@ -24,6 +24,21 @@ pub struct Staged {
     input: Option<PathBuf>,
     /// (temporary, final) paths written so far.
     files: Vec<(PathBuf, PathBuf)>,
+    /// Folders whose files of a family this run owns (`layer-K.png` for every K): those it
+    /// did not write this time are an earlier run's, removed at the commit.
+    owned: Vec<(PathBuf, Family)>,
+}
+
+/// Which file names of a folder a run owns ([`Staged::own`]).
+pub type Family = fn(&str) -> bool;
+
+/// Whether `name` is `layer-` digits then one of `tails` (`.json`, `-deposit.png`, ...): the
+/// names a run's per-layer files take.
+pub fn layer_file(name: &str, tails: &[&str]) -> bool {
+    name.strip_prefix("layer-").is_some_and(|rest| {
+        let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
+        digits > 0 && tails.contains(&&rest[digits..])
+    })
 }
 
 impl Staged {
@@ -32,7 +47,15 @@ impl Staged {
         Staged {
             input: input.and_then(|p| p.canonicalize().ok()),
             files: Vec::new(),
+            owned: Vec::new(),
         }
+    }
+
+    /// Claims the files of `dir` that `family` names (per-layer outputs): at the commit those
+    /// this run did not write (an earlier run's with more layers) are removed, so the folder
+    /// holds one run's layers only. The input file is never removed.
+    pub fn own(&mut self, dir: &Path, family: Family) {
+        self.owned.push((dir.to_path_buf(), family));
     }
 
     /// Refuses `path` if it names the input file.
@@ -67,6 +90,7 @@ impl Staged {
     /// Renames every temporary into place.
     pub fn commit(mut self) -> Result<(), String> {
         let files = std::mem::take(&mut self.files);
+        let mut written: Vec<PathBuf> = Vec::with_capacity(files.len());
         let mut files = files.into_iter();
         while let Some((tmp, path)) = files.next() {
             if let Err(e) = std::fs::rename(&tmp, &path) {
@@ -75,6 +99,26 @@ impl Staged {
                     let _ = std::fs::remove_file(t);
                 }
                 return Err(format!("cannot write {}: {e}", path.display()));
+            }
+            written.push(path);
+        }
+        for (dir, family) in std::mem::take(&mut self.owned) {
+            let Ok(entries) = std::fs::read_dir(&dir) else {
+                continue;
+            };
+            for entry in entries.flatten() {
+                let path = entry.path();
+                let name = entry.file_name();
+                let stale = name.to_str().is_some_and(family)
+                    && !written
+                        .iter()
+                        .any(|w| w.file_name() == Some(name.as_os_str()))
+                    && resolved(&path) != self.input
+                    && entry.file_type().is_ok_and(|t| t.is_file());
+                if stale {
+                    std::fs::remove_file(&path)
+                        .map_err(|e| format!("cannot remove {}: {e}", path.display()))?;
+                }
             }
         }
         Ok(())

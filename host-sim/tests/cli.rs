@@ -220,6 +220,37 @@ fn a_slice_too_small_for_one_road_is_refused_not_laid_empty() {
 }
 
 #[test]
+fn a_run_into_an_earlier_runs_folder_leaves_only_its_own_layers() {
+    let out = tmp("rerun");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/vessel_ring.json");
+    run_ok(
+        hollowpath()
+            .args(["plan", slice, "--layers", "3", "--out"])
+            .arg(&out),
+    );
+    assert!(out.join("layer-2.json").exists());
+    // The user's own file of another name stays.
+    std::fs::write(out.join("layer-notes.txt"), "mine").unwrap();
+    run_ok(
+        hollowpath()
+            .args(["plan", slice, "--layers", "1", "--out"])
+            .arg(&out),
+    );
+    for k in 1..3 {
+        for tail in [".json", ".svg", ".png", "-deposit.png"] {
+            let name = format!("layer-{k}{tail}");
+            assert!(
+                !out.join(&name).exists(),
+                "{name} left from the earlier run"
+            );
+        }
+    }
+    assert!(out.join("layer-0.json").exists() && out.join("layer-notes.txt").exists());
+    let metrics = read_json(&out.join("metrics.json"));
+    assert_eq!(metrics["layers"].as_array().map(|l| l.len()), Some(1));
+}
+
+#[test]
 fn layer_counts_out_of_range_are_refused_before_any_work() {
     let out = tmp("layer-count");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");

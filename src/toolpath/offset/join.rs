@@ -463,8 +463,9 @@ mod tests {
         std::thread::Builder::new()
             .stack_size(64 << 20)
             .spawn(|| {
-                // 300 spikes 15-20 mm out, 0.25 mm roads: 127 loops, 106 joins.
-                let slice = spiky(300, 5.0, 15.0, 0.25);
+                // 240 spikes 7-11 mm out, 0.25 mm roads (within every build's capacities
+                // but the board's): 77 loops, 43 joins.
+                let slice = spiky(240, 4.0, 7.0, 0.25);
                 let mut grid = Box::new(GridMemory::new());
                 let mut searched = [0usize; 2];
                 let mut built: [(StdVec<[u32; 6]>, OffsetStats); 2] = Default::default();
@@ -479,9 +480,9 @@ mod tests {
                 PLAIN.with(|p| p.set(false));
                 assert_eq!(built[0], built[1]);
                 // The slice needs relaxed joins, many of them.
-                assert!(built[1].1.joins > 80, "{:?}", built[1].1);
-                assert!(searched[0] > 5000, "{searched:?}");
-                assert!(10 * searched[1] < searched[0], "{searched:?}");
+                assert!(built[1].1.joins > 30, "{:?}", built[1].1);
+                assert!(searched[0] > 3000, "{searched:?}");
+                assert!(8 * searched[1] < searched[0], "{searched:?}");
             })
             .unwrap()
             .join()
