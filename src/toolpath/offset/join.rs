@@ -7,8 +7,8 @@ use super::{
     RELAXED_TOL, STRICT_TOL,
 };
 use crate::config::MAX_SITES;
-use crate::geometry::polyline;
 use crate::geometry::primitives::MinMax;
+use crate::geometry::{polygon, polyline};
 use crate::toolpath::NARROWING;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
@@ -29,6 +29,7 @@ impl OffsetSpiral {
         let len = self.loops[a].length;
         let lenb = self.loops[b].length;
         let steps = libm::floorf(len / (0.25 * w)) as usize;
+        let tol = if relaxed { RELAXED_TOL } else { STRICT_TOL };
         for (g, k) in self
             .gaps()
             .iter()
@@ -36,6 +37,15 @@ impl OffsetSpiral {
         {
             let s0 = k as f32 * 0.25 * w;
             let (a1, a2) = (s0, wrap(s0 + g * w, len));
+            // Far from `b`, no point of the gap (within `(g + 1/2) w` of `s0` along `a`, so
+            // as near in the plane) reaches it a road out (`below` looks a road width along
+            // the unit gradient, then `tol` around): the same answer without the searches (a
+            // long loop beside a small one is mostly far from it).
+            let reach = (g + 0.5) * w + 2.0 * w + (tol + 1e-3) * w;
+            if !tests_plain() && polygon::bbox_distance(self.loops[b].bbox, self.at(a, s0)) > reach
+            {
+                continue;
+            }
             if !self.free(a, a1, a2, 0.5 * w) {
                 continue;
             }
@@ -43,11 +53,12 @@ impl OffsetSpiral {
             let mut prev: Option<f32> = None;
             let mut ok = true;
             let mut ends = (0.0, 0.0);
-            let (offsets, tol) = if relaxed {
-                ([f32::NAN, 0.0, 0.5 * g, g, f32::NAN], RELAXED_TOL)
+            let offsets = if relaxed {
+                [f32::NAN, 0.0, 0.5 * g, g, f32::NAN]
             } else {
-                ([-0.5f32, 0.0, 0.5 * g, g, g + 0.5], STRICT_TOL)
+                [-0.5f32, 0.0, 0.5 * g, g, g + 0.5]
             };
+
             for (m, off) in offsets.iter().enumerate() {
                 if off.is_nan() {
                     continue;
@@ -374,8 +385,9 @@ impl OffsetSpiral {
 
 #[cfg(test)]
 std::thread_local! {
-    /// Test builds only: whether this thread's relaxed joins try every pair again (the search
-    /// [`OffsetSpiral::relaxed_join`] replaces), and how many pairs they have tried.
+    /// Test builds only: whether this thread's joins search as before their shortcuts (relaxed
+    /// joins try every pair again, sites are sought along all of a loop however far from the
+    /// other), and how many pairs relaxed joins have tried.
     static PLAIN: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
     static RELAXED_SEARCHES: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
 }
@@ -456,8 +468,9 @@ mod tests {
     }
 
     /// Relaxed joins try each unreached loop only against the loops reached since its last
-    /// try, and join the loops exactly as the search over every pair after every join did,
-    /// with a fraction of its searches.
+    /// try, and sites are sought only where the loops come near: the loops are joined exactly
+    /// as the search over every pair after every join, along all of each loop, joined them,
+    /// with a fraction of its relaxed searches.
     #[test]
     fn relaxed_joins_try_each_pair_once_and_join_as_the_full_search() {
         std::thread::Builder::new()
