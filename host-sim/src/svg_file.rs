@@ -273,6 +273,80 @@ fn collect(
     }
 }
 
+/// Whether `p` lies inside the closed outline `c` (even-odd).
+fn contains(c: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut inside = false;
+    for k in 0..c.len() {
+        let (a, b) = (c[k], c[(k + 1) % c.len()]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+        {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+/// The first two outlines whose boundaries cross or touch, if any.
+fn crossing_pair(contours: &[Vec<[f64; 2]>]) -> Option<(usize, usize)> {
+    type Box2 = ([f64; 2], [f64; 2]);
+    let bbox = |pts: &[[f64; 2]]| -> Box2 {
+        pts.iter().fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), p| {
+                (
+                    [lo[0].min(p[0]), lo[1].min(p[1])],
+                    [hi[0].max(p[0]), hi[1].max(p[1])],
+                )
+            },
+        )
+    };
+    let apart =
+        |a: Box2, b: Box2| a.1[0] < b.0[0] || b.1[0] < a.0[0] || a.1[1] < b.0[1] || b.1[1] < a.0[1];
+    let cross = |a: [f64; 2], b: [f64; 2], p: [f64; 2]| {
+        (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+    };
+    // Proper crossings and touches (an end on the other segment), by exact signs.
+    let meet = |a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]| {
+        let (d1, d2) = (cross(c, d, a), cross(c, d, b));
+        let (d3, d4) = (cross(a, b, c), cross(a, b, d));
+        let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+            r[0] >= p[0].min(q[0])
+                && r[0] <= p[0].max(q[0])
+                && r[1] >= p[1].min(q[1])
+                && r[1] <= p[1].max(q[1])
+        };
+        (d1 * d2 < 0.0 && d3 * d4 < 0.0)
+            || (d1 == 0.0 && on(c, d, a))
+            || (d2 == 0.0 && on(c, d, b))
+            || (d3 == 0.0 && on(a, b, c))
+            || (d4 == 0.0 && on(a, b, d))
+    };
+    let boxes: Vec<Box2> = contours.iter().map(|c| bbox(c)).collect();
+    for i in 0..contours.len() {
+        for j in i + 1..contours.len() {
+            if apart(boxes[i], boxes[j]) {
+                continue;
+            }
+            let (p, q) = (&contours[i], &contours[j]);
+            for k in 0..p.len() {
+                let (a, b) = (p[k], p[(k + 1) % p.len()]);
+                let eb = bbox(&[a, b]);
+                if apart(eb, boxes[j]) {
+                    continue;
+                }
+                for m in 0..q.len() {
+                    let (c, d) = (q[m], q[(m + 1) % q.len()]);
+                    if !apart(eb, bbox(&[c, d])) && meet(a, b, c, d) {
+                        return Some((i, j));
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
 /// Reads a drawing's text (`name` for the slice).
 pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
     let opt = usvg::Options::default();
@@ -303,11 +377,42 @@ pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
         return Err(SvgError::Shape("the drawing has no closed shape".into()));
     }
     let contours: Vec<Vec<[f64; 2]>> = outlines.iter().map(|o| o.points.clone()).collect();
+    // Outlines that cross would nest in no consistent way (and be named as separate walls):
+    // say which cross.
+    // Shapes are named by id where they have one, and by where they are (mm, the slice's
+    // axes) always: usvg keeps no source lines.
+    let describe = |i: usize| {
+        let c = &contours[i];
+        let n = c.len() as f64;
+        let (x, y) = c
+            .iter()
+            .fold((0.0, 0.0), |(x, y), p| (x + p[0] / n, y + p[1] / n));
+        format!("{} (around {x:.1}, {y:.1} mm)", outlines[i].shape)
+    };
+    if let Some((i, j)) = crossing_pair(&contours) {
+        return Err(SvgError::Shape(format!(
+            "{} and {} cross; a slice's holes lie inside its wall, apart from each other",
+            describe(i),
+            describe(j)
+        )));
+    }
     let islands = nest::nest(&contours);
     let [(wall, holes)] = &islands[..] else {
+        // Outlines that cross none: one inside another's hole is a wall of its own to `nest`.
+        let inside_other = |w: usize| {
+            (0..contours.len()).any(|k| k != w && contains(&contours[k], contours[w][0]))
+        };
+        if let Some(&(w, _)) = islands.iter().find(|(w, _)| inside_other(*w)) {
+            return Err(SvgError::Shape(format!(
+                "{} lies inside a hole; a slice's holes hold nothing",
+                describe(w)
+            )));
+        }
+        let walls: Vec<String> = islands.iter().map(|(w, _)| describe(*w)).collect();
         return Err(SvgError::Shape(format!(
-            "the drawing has {} separate walls (outlines inside no other); a slice has one",
-            islands.len()
+            "the drawing has {} separate walls (outlines inside no other: {}); a slice has one",
+            islands.len(),
+            walls.join(", ")
         )));
     };
     let nested = contours.len() - 1 - holes.len();

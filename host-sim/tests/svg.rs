@@ -75,6 +75,19 @@ fn drawings_that_are_not_one_slice_are_refused_naming_why() {
             r##"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20"><rect width="5" height="5" fill="red"/><rect x="10" width="5" height="5" fill="red"/></svg>"##.to_string(),
             "2 separate walls",
         ),
+        // A hole across the wall, two holes overlapping: they were '2 separate walls' too.
+        (
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20"><rect width="20" height="20" fill="#d62629"/><circle cx="19" cy="10" r="3" fill="#1f78b5"/></svg>"##.to_string(),
+            "(around 19.0, 10.0 mm) cross; a slice's holes lie inside its wall",
+        ),
+        (
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20"><rect width="20" height="20" fill="#d62629"/><circle cx="8" cy="10" r="3" fill="#1f78b5"/><circle cx="12" cy="10" r="3" fill="#2ba12b"/></svg>"##.to_string(),
+            "(around 8.0, 10.0 mm) and a shape without id (around 12.0, 10.0 mm) cross",
+        ),
+        (
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20"><rect width="20" height="20" fill="#d62629"/><rect x="4" y="4" width="12" height="12" fill="#1f78b5"/><rect x="8" y="8" width="4" height="4" fill="#d62629"/></svg>"##.to_string(),
+            "(around 10.0, 10.0 mm) lies inside a hole",
+        ),
     ];
     for (svg, want) in cases {
         let e = on_large_stack(|| parse(&svg, "x").unwrap_err()).to_string();
