@@ -462,7 +462,7 @@ fn run(
         None
     };
 
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    create_out(out)?;
     let json = serde_json::to_string_pretty(&output::mcls_json(plan)).map_err(|e| e.to_string())?;
     write(&out.join("mcls.json"), json.as_bytes())?;
     write(
@@ -676,7 +676,7 @@ fn run_simulation(
             }
         }
     }
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    create_out(out)?;
     let field = BlendedField::new(slice, plan);
     let field_fn = |p| field.at(p);
     let (lo, hi) = slice.wall().bbox();
@@ -787,4 +787,15 @@ fn run_simulation(
         out.display()
     );
     Ok(())
+}
+
+/// Creates the output folder `out` (and its parents); a file of that name is named as such.
+fn create_out(out: &Path) -> Result<(), String> {
+    if out.is_file() {
+        return Err(format!(
+            "--out {} is a file: give a folder for the results",
+            out.display()
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))
 }

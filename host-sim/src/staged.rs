@@ -62,7 +62,7 @@ impl Staged {
     pub fn check(&self, path: &Path) -> Result<(), String> {
         if self.input.is_some() && resolved(path) == self.input {
             return Err(format!(
-                "refusing to write {}: it is the input slice file",
+                "refusing to write {}: it is the input file",
                 path.display()
             ));
         }

@@ -320,7 +320,19 @@ fn output_naming_the_input_is_refused() {
         .unwrap();
     assert!(!st.status.success());
     let err = String::from_utf8_lossy(&st.stderr);
-    assert!(err.contains("it is the input slice file"), "{err}");
+    assert!(err.contains("it is the input file"), "{err}");
     assert_eq!(std::fs::read(&input).unwrap(), text);
     assert!(!dir.join("o").join("metrics.json").exists());
+    // --out naming a file (the input, here) is a folder wanted, said so.
+    let st = hollowpath()
+        .arg("plan")
+        .arg(&input)
+        .arg("--out")
+        .arg(&input)
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(err.contains("is a file: give a folder"), "{err}");
+    assert_eq!(std::fs::read(&input).unwrap(), text);
 }
