@@ -390,6 +390,19 @@ proptest! {
     }
 }
 
+/// A query point for the nearest-feature tests (`kind` 0 to 3): `free`, the middle of the
+/// `k`-th edge of one of `features`, its first vertex, or just off that vertex towards `free`.
+fn query_point(features: &[&Feature], free: Point, k: usize, kind: u8) -> Point {
+    let f = features[k % features.len()].points();
+    let (a, b) = (f[k % f.len()], f[(k + 1) % f.len()]);
+    match kind {
+        0 => free,
+        1 => a + (b - a) * 0.5,
+        2 => a,
+        _ => a + (free - a) * 1e-3,
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -411,16 +424,7 @@ proptest! {
         let slice = slice.unwrap();
         let features: Vec<&Feature> = slice.holes().iter().chain([slice.wall()]).collect();
         for (qx, qy, k, kind) in queries {
-            let free = Point::new(qx * rx, qy * ry);
-            let f = features[k % features.len()].points();
-            let (a, b) = (f[k % f.len()], f[(k + 1) % f.len()]);
-            let p = match kind {
-                0 => free,
-                1 => a + (b - a) * 0.5,
-                2 => a,
-                // Just off a vertex, towards the free point.
-                _ => a + (free - a) * 1e-3,
-            };
+            let p = query_point(&features, Point::new(qx * rx, qy * ry), k, kind);
             let wall = slice.wall().nearest(p);
             let mut plain = (slice.holes().len(), -wall.distance, wall);
             for (i, h) in slice.holes().iter().enumerate() {
@@ -457,16 +461,9 @@ proptest! {
         let slice = random_slice(rx, ry, wall_wobble, &holes, 0.4);
         prop_assume!(slice.is_some());
         let slice = slice.unwrap();
+        let holes: Vec<&Feature> = slice.holes().iter().collect();
         for (qx, qy, k, kind) in queries {
-            let free = Point::new(qx * rx, qy * ry);
-            let f = slice.holes()[k % slice.holes().len()].points();
-            let (a, b) = (f[k % f.len()], f[(k + 1) % f.len()]);
-            let p = match kind {
-                0 => free,
-                1 => a + (b - a) * 0.5,
-                2 => a,
-                _ => a + (free - a) * 1e-3,
-            };
+            let p = query_point(&holes, Point::new(qx * rx, qy * ry), k, kind);
             let mut plain = (0, f32::INFINITY, 0, f32::INFINITY);
             for (i, h) in slice.holes().iter().enumerate() {
                 let d = h.signed_distance(p);

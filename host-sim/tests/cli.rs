@@ -156,27 +156,32 @@ fn demo_runs_on_the_built_in_slice() {
     assert!(out.join("sim").join("layer-1-simulated.png").is_file());
 }
 
-#[test]
-fn an_invalid_slice_exits_non_zero_with_one_line() {
-    let dir = tmp("invalid");
-    std::fs::create_dir_all(&dir).unwrap();
-    let bad = dir.join("bad.json");
-    std::fs::write(
-        &bad,
-        r#"{"outer": {"points": [[0,0],[10,0],[10,10],[0,10]], "material": [1,0,0,0]},
-            "holes": [{"points": [[2,2],[3,2],[3,3]], "material": [0,1,0,0]},
-                      {"points": [[2.5,2.1],[5,2],[5,5]], "material": [0,1,0,0]}]}"#,
-    )
-    .unwrap();
+/// Plans the slice file `text` (written in `dir`) into `dir/o`, insisting it is refused;
+/// returns the message.
+fn plan_refused(dir: &std::path::Path, text: &str) -> String {
+    let input = dir.join("slice.json");
+    std::fs::write(&input, text).unwrap();
     let st = hollowpath()
         .args(["plan"])
-        .arg(&bad)
+        .arg(&input)
         .arg("--out")
         .arg(dir.join("o"))
         .output()
         .unwrap();
     assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    String::from_utf8_lossy(&st.stderr).into_owned()
+}
+
+#[test]
+fn an_invalid_slice_exits_non_zero_with_one_line() {
+    let dir = tmp("invalid");
+    std::fs::create_dir_all(&dir).unwrap();
+    let err = plan_refused(
+        &dir,
+        r#"{"outer": {"points": [[0,0],[10,0],[10,10],[0,10]], "material": [1,0,0,0]},
+            "holes": [{"points": [[2,2],[3,2],[3,3]], "material": [0,1,0,0]},
+                      {"points": [[2.5,2.1],[5,2],[5,5]], "material": [0,1,0,0]}]}"#,
+    );
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("holes 0 and 1 overlap"), "{err}");
     assert!(
@@ -196,22 +201,11 @@ fn a_slice_too_small_for_one_road_is_refused_not_laid_empty() {
     // A 0.5 mm square at 0.4 mm roads, no hole: it planned 'successfully' with nothing laid.
     let dir = tmp("tiny");
     std::fs::create_dir_all(&dir).unwrap();
-    let tiny = dir.join("tiny.json");
-    std::fs::write(
-        &tiny,
+    let err = plan_refused(
+        &dir,
         r#"{"outer": {"points": [[0,0],[0.5,0],[0.5,0.5],[0,0.5]], "material": [1,0,0,0]},
             "holes": []}"#,
-    )
-    .unwrap();
-    let st = hollowpath()
-        .args(["plan"])
-        .arg(&tiny)
-        .arg("--out")
-        .arg(dir.join("o"))
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    );
     assert!(
         err.contains("no road fits inside it") && err.contains("road_width"),
         "{err}"
