@@ -119,7 +119,7 @@ fn offset_of(text: &str, line: usize, column: usize) -> usize {
 /// Parses and validates a printer file's text.
 pub fn parse(text: &str) -> Result<PrinterConfig, PrinterFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let doc: Value = serde_json::from_str(text).map_err(|e| {
+    let doc: Value = crate::json_file::parse_unique(text).map_err(|e| {
         let key = key_before(text, offset_of(text, e.line(), e.column()));
         PrinterFileError::Json(e, key)
     })?;

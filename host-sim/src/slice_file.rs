@@ -187,7 +187,7 @@ pub fn load_contours(path: &Path) -> Result<Contours, SliceFileError> {
 /// Parses slice JSON into its contours and settings: the format checked, the slice not.
 pub fn parse_contours(text: &str) -> Result<Contours, SliceFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let doc: Value = serde_json::from_str(text).map_err(SliceFileError::Json)?;
+    let doc: Value = crate::json_file::parse_unique(text).map_err(SliceFileError::Json)?;
     let top = object(&doc, "a slice file", "at the top level", TOP_KEYS)?;
     let mut strings = [None, None, None];
     for (slot, key) in strings.iter_mut().zip(["name", "description", "units"]) {

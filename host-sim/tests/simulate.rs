@@ -354,6 +354,10 @@ fn bad_printer_files_are_refused_naming_the_key() {
             "step_pulse_ns: 1000000000 ns is out of range",
         ),
         (
+            r#"{"print_speed": 10, "print_speed": 12}"#,
+            r#"the key "print_speed" appears twice"#,
+        ),
+        (
             r#"{"layer_height": 1e6}"#,
             "layer_height: 1000000 is out of range",
         ),

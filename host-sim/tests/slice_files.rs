@@ -257,6 +257,24 @@ fn a_huge_coordinate_is_out_of_range_not_infinite() {
 }
 
 #[test]
+fn a_key_given_twice_is_refused_not_the_last_kept() {
+    // A second "holes" silently replaced the first's holes.
+    let text =
+        slice(SQUARE, &[SMALL], "").replacen(r#""holes": ["#, r#""holes": [], "holes": ["#, 1);
+    let e = err(&text);
+    assert!(
+        e.contains(r#"the key "holes" appears twice in one object"#) && e.contains("line 1"),
+        "{e}"
+    );
+    let e = err(&slice(
+        SQUARE,
+        &[SMALL],
+        r#""road_width": 0.4, "road_width": 0.5"#,
+    ));
+    assert!(e.contains(r#""road_width" appears twice"#), "{e}");
+}
+
+#[test]
 fn a_huge_setting_is_out_of_range_as_written_not_infinite() {
     let e = err(&slice(SQUARE, &[SMALL], r#""w_n": 1e308"#));
     assert_eq!(e, "setting w_n: 1e308 is out of range (0 to 16)");
