@@ -387,7 +387,10 @@ impl fmt::Display for Error {
                 "{feature}: vertex {vertex} has a coordinate out of range (coordinates must lie from -{0} to {0} mm)",
                 crate::config::MAX_COORD_MM
             ),
-            Error::ZeroArea { feature } => write!(f, "{feature}: the polygon encloses no area"),
+            Error::ZeroArea { feature } => write!(
+                f,
+                "{feature}: the polygon encloses no area (less than a square micrometre)"
+            ),
             Error::SelfIntersection { feature, edge_a, edge_b } => write!(
                 f,
                 "{feature}: edges {edge_a} and {edge_b} intersect (self-intersecting polygon)"
@@ -400,7 +403,7 @@ impl fmt::Display for Error {
                 f,
                 "hole {hole}: edge {edge} meets wall edge {wall_edge} (not strictly inside the wall)"
             ),
-            Error::HolesOverlap { a, b } => write!(f, "holes {a} and {b} overlap"),
+            Error::HolesOverlap { a, b } => write!(f, "holes {a} and {b} overlap or touch"),
             Error::HolesNested { outer, inner } => {
                 write!(f, "hole {inner} lies inside hole {outer} (nested holes)")
             }

@@ -109,6 +109,11 @@ fn invalid_slices_name_the_feature_and_reason() {
             "hole 0: the polygon encloses no area",
         ),
         (
+            // Tiny, not flat: 0.5 square micrometres.
+            slice(SQUARE, &["[[5,5],[5.001,5],[5,5.001]]"], ""),
+            "hole 0: the polygon encloses no area (less than a square micrometre)",
+        ),
+        (
             slice(SQUARE, &["[[0,0],[4,4],[4,0],[0,2]]"], ""),
             "hole 0: edges 0 and 2 intersect",
         ),
@@ -118,7 +123,7 @@ fn invalid_slices_name_the_feature_and_reason() {
         ),
         (
             slice(SQUARE, &[SMALL, "[[0,0],[3,0],[3,3]]"], ""),
-            "holes 0 and 1 overlap",
+            "holes 0 and 1 overlap or touch",
         ),
         (
             slice(SQUARE, &["[[-5,-5],[5,-5],[5,5],[-5,5]]", SMALL], ""),
