@@ -12,10 +12,10 @@ use std::fmt;
 use std::path::Path;
 
 use hollowpath::config::CHANNELS;
-use hollowpath::geometry::Point;
+use hollowpath::geometry::{polygon, Point};
 use hollowpath::{Material, Settings, Slice};
 
-use crate::model::nest;
+use crate::model::{cut, nest};
 use crate::render::CHANNEL_COLOURS;
 use crate::slice_file::SliceFile;
 
@@ -273,80 +273,6 @@ fn collect(
     }
 }
 
-/// Whether `p` lies inside the closed outline `c` (even-odd).
-fn contains(c: &[[f64; 2]], p: [f64; 2]) -> bool {
-    let mut inside = false;
-    for k in 0..c.len() {
-        let (a, b) = (c[k], c[(k + 1) % c.len()]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
-        {
-            inside = !inside;
-        }
-    }
-    inside
-}
-
-/// The first two outlines whose boundaries cross or touch, if any.
-fn crossing_pair(contours: &[Vec<[f64; 2]>]) -> Option<(usize, usize)> {
-    type Box2 = ([f64; 2], [f64; 2]);
-    let bbox = |pts: &[[f64; 2]]| -> Box2 {
-        pts.iter().fold(
-            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-            |(lo, hi), p| {
-                (
-                    [lo[0].min(p[0]), lo[1].min(p[1])],
-                    [hi[0].max(p[0]), hi[1].max(p[1])],
-                )
-            },
-        )
-    };
-    let apart =
-        |a: Box2, b: Box2| a.1[0] < b.0[0] || b.1[0] < a.0[0] || a.1[1] < b.0[1] || b.1[1] < a.0[1];
-    let cross = |a: [f64; 2], b: [f64; 2], p: [f64; 2]| {
-        (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
-    };
-    // Proper crossings and touches (an end on the other segment), by exact signs.
-    let meet = |a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]| {
-        let (d1, d2) = (cross(c, d, a), cross(c, d, b));
-        let (d3, d4) = (cross(a, b, c), cross(a, b, d));
-        let on = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
-            r[0] >= p[0].min(q[0])
-                && r[0] <= p[0].max(q[0])
-                && r[1] >= p[1].min(q[1])
-                && r[1] <= p[1].max(q[1])
-        };
-        (d1 * d2 < 0.0 && d3 * d4 < 0.0)
-            || (d1 == 0.0 && on(c, d, a))
-            || (d2 == 0.0 && on(c, d, b))
-            || (d3 == 0.0 && on(a, b, c))
-            || (d4 == 0.0 && on(a, b, d))
-    };
-    let boxes: Vec<Box2> = contours.iter().map(|c| bbox(c)).collect();
-    for i in 0..contours.len() {
-        for j in i + 1..contours.len() {
-            if apart(boxes[i], boxes[j]) {
-                continue;
-            }
-            let (p, q) = (&contours[i], &contours[j]);
-            for k in 0..p.len() {
-                let (a, b) = (p[k], p[(k + 1) % p.len()]);
-                let eb = bbox(&[a, b]);
-                if apart(eb, boxes[j]) {
-                    continue;
-                }
-                for m in 0..q.len() {
-                    let (c, d) = (q[m], q[(m + 1) % q.len()]);
-                    if !apart(eb, bbox(&[c, d])) && meet(a, b, c, d) {
-                        return Some((i, j));
-                    }
-                }
-            }
-        }
-    }
-    None
-}
-
 /// Reads a drawing's text (`name` for the slice).
 pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
     let opt = usvg::Options::default();
@@ -389,7 +315,21 @@ pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
             .fold((0.0, 0.0), |(x, y), p| (x + p[0] / n, y + p[1] / n));
         format!("{} (around {x:.1}, {y:.1} mm)", outlines[i].shape)
     };
-    if let Some((i, j)) = crossing_pair(&contours) {
+    // The outlines as the slice will hold them; crossing as the slice's own check finds.
+    let points: Vec<Vec<Point>> = contours
+        .iter()
+        .map(|c| {
+            c.iter()
+                .map(|p| Point::new(p[0] as f32, p[1] as f32))
+                .collect()
+        })
+        .collect();
+    let crossing = (0..points.len()).find_map(|i| {
+        (i + 1..points.len())
+            .find(|&j| polygon::boundaries_meet(&points[i], &points[j]).is_some())
+            .map(|j| (i, j))
+    });
+    if let Some((i, j)) = crossing {
         return Err(SvgError::Shape(format!(
             "{} and {} cross; a slice's holes lie inside its wall, apart from each other",
             describe(i),
@@ -400,7 +340,7 @@ pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
     let [(wall, holes)] = &islands[..] else {
         // Outlines that cross none: one inside another's hole is a wall of its own to `nest`.
         let inside_other = |w: usize| {
-            (0..contours.len()).any(|k| k != w && contains(&contours[k], contours[w][0]))
+            (0..contours.len()).any(|k| k != w && cut::contains(&contours[k], contours[w][0]))
         };
         if let Some(&(w, _)) = islands.iter().find(|(w, _)| inside_other(*w)) {
             return Err(SvgError::Shape(format!(
@@ -427,16 +367,10 @@ pub fn parse(text: &str, name: &str) -> Result<SliceFile, SvgError> {
             .clone()
             .map_err(|why| SvgError::Material(outlines[i].shape.clone(), why))
     };
-    let pts = |i: usize| -> Vec<Point> {
-        contours[i]
-            .iter()
-            .map(|p| Point::new(p[0] as f32, p[1] as f32))
-            .collect()
-    };
-    let wall_pts = pts(*wall);
+    let wall_pts = points[*wall].clone();
     let hole_pts: Vec<(Vec<Point>, Material)> = holes
         .iter()
-        .map(|&h| Ok((pts(h), material(h)?)))
+        .map(|&h| Ok((points[h].clone(), material(h)?)))
         .collect::<Result<_, SvgError>>()?;
     let refs: Vec<(&[Point], Material)> = hole_pts.iter().map(|(p, m)| (&p[..], *m)).collect();
     let slice = Slice::from_contours(&wall_pts, material(*wall)?, &refs, Settings::default())

@@ -327,8 +327,9 @@ pub enum SimError {
     },
 }
 
-/// Most X and Y steps one simulated layer may take: every step is two pin edges of 16 bytes
-/// in the trace (a 100 mm slice at 0.4 mm roads, about 20 m of road at 400 steps/mm, is 11 M).
+/// Most X and Y steps one simulated layer may take: every step is two recorded pin edges in
+/// the trace (a 100 mm slice at 0.4 mm roads, estimated from its road length, about 20 m at
+/// 400 steps/mm, takes some 11 M).
 pub const MAX_LAYER_STEPS: f64 = 32e6;
 /// Longest a simulated layer may take to print, s (the virtual clock runs every 1 ms segment
 /// of it; the four_holes zigzag at the default printer takes 264 s).

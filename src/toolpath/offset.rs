@@ -124,14 +124,21 @@ struct Loop {
     bbox: (Point, Point),
     /// The site that joins it to the loop it was reached from (`NONE` for a root).
     parent: u16,
-    visited: bool,
-    /// When it was reached: how many loops were reached before it (`visits`).
+    /// When it was reached: how many loops were reached before it (`visits`); `NONE`
+    /// while unreached ([`visited`](Loop::visited)).
     order: u16,
     /// Unreached: every loop reached before this many (by `order`) was tried for a relaxed
     /// join to it and gave none ([`relaxed_join`](Self::relaxed_join)).
     tried: u16,
     /// Small: laid only if a join reaches it.
     optional: bool,
+}
+
+impl Loop {
+    /// Whether a join (or a root) has reached it.
+    fn visited(&self) -> bool {
+        self.order != NONE
+    }
 }
 
 /// A join of two loops `a` and `b` running side by side: the gap `[a1, a2]` (arc length, in

@@ -156,7 +156,6 @@ impl OffsetSpiral {
         // Longest contact first: those have the most room for a site.
         pairs.sort_unstable_by(|x, y| y.2.cmp(&x.2).then(x.0.cmp(&y.0)).then(x.1.cmp(&y.1)));
         for l in self.loops.iter_mut() {
-            l.visited = false;
             l.parent = NONE;
             l.order = NONE;
             l.tried = 0;
@@ -167,7 +166,7 @@ impl OffsetSpiral {
         // any reached loop a level away before a new road is started.
         loop {
             let root = (0..n)
-                .filter(|&l| !self.loops[l].visited && !self.loops[l].optional)
+                .filter(|&l| !self.loops[l].visited() && !self.loops[l].optional)
                 .min_by(|&x, &y| {
                     let (lx, ly) = (&self.loops[x], &self.loops[y]);
                     lx.level
@@ -209,7 +208,6 @@ impl OffsetSpiral {
     /// Marks loop `l` reached, the `visits`-th.
     fn visit(&mut self, l: usize) {
         let lo = &mut self.loops[l];
-        lo.visited = true;
         lo.order = self.visits;
         // At most one visit per loop, and `MAX_LOOPS < NONE`.
         self.visits += 1;
@@ -241,7 +239,7 @@ impl OffsetSpiral {
                 } else {
                     continue;
                 };
-                if self.loops[other].visited {
+                if self.loops[other].visited() {
                     continue;
                 }
                 if let Some(site) = self.find_site(slice, a, b, false) {
@@ -267,7 +265,7 @@ impl OffsetSpiral {
     pub(super) fn relaxed_join(&mut self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
         let n = self.loops.len();
         for u in 0..n {
-            if self.loops[u].visited {
+            if self.loops[u].visited() {
                 continue;
             }
             let since = if tests_plain() {
@@ -275,7 +273,7 @@ impl OffsetSpiral {
             } else {
                 self.loops[u].tried
             };
-            for v in (0..n).filter(|&v| self.loops[v].visited && self.loops[v].order >= since) {
+            for v in (0..n).filter(|&v| self.loops[v].visited() && self.loops[v].order >= since) {
                 let (lu, lv) = (&self.loops[u], &self.loops[v]);
                 if !polyline::boxes_overlap(lu.bbox, lv.bbox, 2.0 * w) {
                     continue;
@@ -319,9 +317,10 @@ impl OffsetSpiral {
         let step = 0.1 * w;
         // (bridge length, loop reached, site)
         let mut best: Option<(f32, usize, Site)> = None;
-        for u in (0..n).filter(|&u| !self.loops[u].visited && !self.loops[u].optional) {
+        for u in (0..n).filter(|&u| !self.loops[u].visited() && !self.loops[u].optional) {
             let lu = &self.loops[u];
-            for v in (0..n).filter(|&v| self.loops[v].visited && self.loops[v].level == lu.level) {
+            for v in (0..n).filter(|&v| self.loops[v].visited() && self.loops[v].level == lu.level)
+            {
                 let lv = &self.loops[v];
                 if !polyline::boxes_overlap(lu.bbox, lv.bbox, reach) {
                     continue;

@@ -273,7 +273,6 @@ impl OffsetSpiral {
                 length,
                 bbox,
                 parent: NONE,
-                visited: false,
                 order: NONE,
                 tried: 0,
                 optional: length < OPTIONAL_LOOP_ROADS * w,

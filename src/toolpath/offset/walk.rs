@@ -20,7 +20,7 @@ impl OffsetSpiral {
     pub(super) fn laid_at(&self, q: Point, level: u16, tol: f32) -> bool {
         self.loops.iter().enumerate().any(|(l, lp)| {
             let (lo, hi) = lp.bbox;
-            if !lp.visited
+            if !lp.visited()
                 || lp.level != level
                 || q.x < lo.x - tol
                 || q.y < lo.y - tol
@@ -187,9 +187,9 @@ impl OffsetSpiral {
     ) -> Result<(), Error> {
         let field = BlendedField::new(slice, plan);
         // Small loops no join reached are left out.
-        stats.dropped += self.loops.iter().filter(|l| !l.visited).count() as u16;
+        stats.dropped += self.loops.iter().filter(|l| !l.visited()).count() as u16;
         let roots: Vec<u16, MAX_LOOPS> = (0..self.loops.len())
-            .filter(|&l| self.loops[l].visited && self.loops[l].parent == NONE)
+            .filter(|&l| self.loops[l].visited() && self.loops[l].parent == NONE)
             .map(|l| l as u16)
             .collect();
         for (r, &root) in roots.iter().enumerate() {
