@@ -364,25 +364,31 @@ fn stroke(
     // apart (across the MCL's direction), within reach of the strip; the wider end stops
     // short by its extra half width, so its round end keeps to the band.
     let along_mcl = dir * (1.0 / dir.norm());
-    let tip_width = |k: usize| {
-        let gap = state
-            .last
-            .map_or(ws, |last| (last.tips[k] - tips[k]).dot(along_mcl).abs());
-        // Its edge `kept` off the feature: a road, or half a road in a bare strip.
-        let kept = ends[k].1;
-        let cap = 2.0 * (fan.clearance(slice, tips[k]) - kept - 2.0 * EDGE_MARGIN);
-        gap.fmin(settings.max_width).fmin(cap).fmax(ws)
-    };
-    let widths = [tip_width(0), tip_width(1)];
-    let tips = [0, 1].map(|k| {
+    // The point `back` from tip `k` toward the MCL.
+    let pulled = |k: usize, back: f32| {
         let out = tips[k].dist(q);
-        let back = (0.5 * (widths[k] - ws)).fmin(out);
         if out > 1e-6 {
-            tips[k] + (q - tips[k]) * (back / out)
+            tips[k] + (q - tips[k]) * (back.fmin(out) / out)
         } else {
             tips[k]
         }
-    });
+    };
+    let tip = |k: usize| {
+        let gap = state
+            .last
+            .map_or(ws, |last| (last.tips[k] - tips[k]).dot(along_mcl).abs());
+        let wanted = gap.fmin(settings.max_width).fmax(ws);
+        // Stopped short for the width wanted, and as wide there as its edge stays `kept` off
+        // the feature (a road, or half a road in a bare strip): at most the width wanted, so
+        // it stands at least as far back as its width needs.
+        let at = pulled(k, 0.5 * (wanted - ws));
+        let kept = ends[k].1;
+        let cap = 2.0 * (fan.clearance(slice, at) - kept - 2.0 * EDGE_MARGIN);
+        (at, wanted.fmin(cap).fmax(ws))
+    };
+    let (t0, t1) = (tip(0), tip(1));
+    let widths = [t0.1, t1.1];
+    let tips = [t0.0, t1.0];
     let order = if state.right_first { [0, 1] } else { [1, 0] };
     let at = |k: usize| Vertex {
         at: tips[k],
