@@ -5,8 +5,7 @@
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
 //! The offset spiral's coverage holds the bar (>= 0.97, every one of the benchmark's 200
 //! slices); its overfill is guarded at 0.05 (the bar, 0.04, is exceeded on 1 of 200), the
-//! zigzag's coverage at 0.85 (it reaches 0.63 on the benchmark's slices) and its starts at
-//! two; the rest is the benchmark's to report.
+//! zigzag's coverage at 0.85 and its starts at one; the rest is the benchmark's to report.
 
 use host_sim::layers::{layer, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
@@ -44,10 +43,11 @@ fn default_layers_on_random_slices_as_printed() {
                 // these slices; before the strokes stood on one grid along each MCL, whole
                 // sectors of a fan stayed bare).
                 assert!(m.coverage >= 0.85, "{what}");
-                // One road on 9 of these 10 slices, two on the last: a move that crosses a
-                // thin feature goes round it, one that sags into a keep-out band is laid
-                // narrower (before, one of them needed 11 starts and one 3).
-                assert!(m.starts <= 2, "{what}");
+                // One road: a move that crosses a thin feature goes round it, one that sags
+                // into a keep-out band is laid narrower (before, one of them needed 11 starts
+                // and one 3), and pieces that reach one keep-out curve are joined across it
+                // (before `zigzag::splice_across`, the last needed 2).
+                assert_eq!(m.starts, 1, "{what}");
             }
             if k == 1 {
                 // The offset spiral: one road, each feature's own material on its keep-out
@@ -112,14 +112,37 @@ fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
     }
 }
 
+/// Pieces of the zigzag that splicing side by side left apart, though they reach one keep-out
+/// curve (a loop whose arcs there have another piece's ends between them, a path of one MCL
+/// without arcs), are joined across the stretch of curve between their nearest ends
+/// (`zigzag::splice_across`): that stretch is laid twice instead of a jump and a new start.
+/// Before, these three slices' zigzags started twice (travel 4.1, 1.2 and 20 mm).
+#[test]
+fn the_zigzag_joins_pieces_apart_across_a_stretch_of_the_curve_they_share() {
+    for seed in [134, 153, 225] {
+        let (m, note, what) = measured(seed, 0);
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(
+            note.contains("1 piece(s)") && !note.contains("bridging 0"),
+            "{what}"
+        );
+        assert!(m.spill < 5e-4, "{what}");
+        assert!(m.overfill < 0.055, "{what}");
+    }
+}
+
 /// Where a meander's strokes fan apart faster than their ends widen (two small holes in a
 /// wall 40 mm across: strokes 15 mm long round a small hole), strokes between them close the
 /// wedges between their far ends (`meander::fan_parts`). Coverage before: 0.793 and 0.858.
+/// A stroke's tip is as wide as the gap to the last one's where its edge stays off the wall
+/// once it stands back for that width (`meander::stroke`; the cap was measured at the tip
+/// before it stood back, so a tip beside the wall stayed as narrow as the stroke): seed 26
+/// 0.917 -> 0.937, 153 0.921.
 #[test]
 fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
-    for seed in [26, 153] {
+    for (seed, bar) in [(26, 0.93), (153, 0.915)] {
         let (m, _, what) = measured(seed, 0);
-        assert!(m.coverage >= 0.9, "{what}");
+        assert!(m.coverage >= bar, "{what}");
         assert!(m.spill < 5e-4, "{what}");
     }
 }

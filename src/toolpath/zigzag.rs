@@ -8,8 +8,11 @@
 //! ends, else on a feature) is what leaves a curve with an unpaired end; here the pairings of
 //! all curves are searched together for the fewest separate pieces, and loops that lie side
 //! by side on a curve are then spliced into one (two neighbouring arcs swapped crosswise, at
-//! the cost of one short doubled stretch of curve). What still remains separate is reached by
-//! a travel move to the nearest free end, as the paper does for its internal regions.
+//! the cost of one short doubled stretch of curve). Pieces that still lie apart but reach one
+//! curve are then joined across the stretch between their nearest ends there
+//! ([`splice_across`]: that stretch is laid twice, over the ends between). Only what reaches
+//! no curve of the rest is reached by a travel move to the nearest free end, as the paper does
+//! for its internal regions.
 //!
 //! Each MCL's road owns half the gap to its neighbouring MCLs either side
 //! (`meander::band_at`) and is as wide as that band up to
@@ -67,10 +70,13 @@ const _: () = assert!(EXHAUSTIVE_PAIRINGS < 32);
 pub struct ZigzagStats {
     /// Separate pieces after choosing the pairings.
     pub pieces_paired: u16,
-    /// Pieces after splicing loops together: the extrusion starts of the layer.
+    /// Pieces after splicing loops together and bridging: the extrusion starts of the layer.
     pub pieces: u16,
     /// Loops spliced together.
     pub splices: u16,
+    /// Pieces joined across a stretch of keep-out curve that other ends lie on (laid twice
+    /// there), where splicing side by side left them apart.
+    pub bridges: u16,
     /// MCLs left out to fix the parity of the curves.
     pub dropped: u16,
 }
@@ -222,6 +228,11 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             }
         }
     }
+    // Pieces still apart that reach one curve: splice them across the stretch between their
+    // nearest arcs there ([`splice_across`]), the shortest stretch first.
+    while splice_across(&mut ends, &curves, &mut parent) {
+        stats.bridges += 1;
+    }
     stats.pieces = ends.pieces(&mut parent);
 
     // The MCLs laid, and their boxes: each road's band reaches to the next of them.
@@ -242,8 +253,9 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         bare: Some(&bare),
     };
 
-    // Walk the pieces: paths from a free end, loops from their smallest end; between pieces,
-    // travel to the nearest free end.
+    // Walk the pieces: paths from a free end, loops from their smallest end; between pieces
+    // (which reach no keep-out curve in common, [`splice_across`]), travel to the nearest end
+    // that may start one.
     let open = open_pieces(&ends, &mut parent);
     let mut visited = [false; ENDS];
     let mut here: Option<Point> = None;
@@ -296,4 +308,63 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         }
     }
     Ok(stats)
+}
+
+/// Splices two pieces that lie apart but reach one keep-out curve, where splicing side by side
+/// could not (their arcs on it are not neighbours). Of ends `b` and `c` of two pieces on one
+/// curve (two paths only by free ends), `c` the first end after `b` along the curve that
+/// belongs to another such piece, the pair with the shortest stretch from `b` to `c` is joined
+/// by an arc: where both have arcs, `(a, b)` and `(c, d)` become `(a, d)` and `(b, c)`; where
+/// one is a path's free end, the other's arc is broken and its mate becomes the path's new
+/// free end; two free ends are joined as they are. The two
+/// pieces become one; the new arcs run over the ends between `b` and `c` (and `(a, d)` over
+/// both old arcs' stretches), so that stretch of curve is laid twice: a doubled stretch
+/// instead of a jump and a new start. Returns whether it spliced.
+fn splice_across(ends: &mut Ends, curves: &[KeepOut<'_>], parent: &mut [u16; ENDS]) -> bool {
+    if ends.pieces(parent) <= 1 {
+        return false;
+    }
+    let open = open_pieces(ends, parent);
+    // (stretch, b, c)
+    let mut best: Option<(f32, u16, u16)> = None;
+    for (c, curve) in curves.iter().enumerate() {
+        let (lo, hi) = ends.ranges[c];
+        let (lo, n) = (lo as usize, (hi - lo) as usize);
+        for k in 0..n {
+            let b = ends.order[lo + k];
+            let rb = find(parent, b);
+            for j in 1..n {
+                let cc = ends.order[lo + (k + j) % n];
+                let rc = find(parent, cc);
+                // Two paths join only end to end (swapping their arcs leaves two paths).
+                let both_open = open[rb as usize] && open[rc as usize];
+                let free = ends.arc[b as usize] == NONE && ends.arc[cc as usize] == NONE;
+                if rc == rb || (both_open && !free) {
+                    continue;
+                }
+                let stretch = curve.wrap(ends.param[cc as usize] - ends.param[b as usize]);
+                if best.is_none_or(|x| stretch < x.0) {
+                    best = Some((stretch, b, cc));
+                }
+                break;
+            }
+        }
+    }
+    let Some((_, b, cc)) = best else {
+        return false;
+    };
+    let (a, d) = (ends.arc[b as usize], ends.arc[cc as usize]);
+    match (a != NONE, d != NONE) {
+        (true, true) => {
+            ends.arc[a as usize] = d;
+            ends.arc[d as usize] = a;
+        }
+        (true, false) => ends.arc[a as usize] = NONE,
+        (false, true) => ends.arc[d as usize] = NONE,
+        // Two paths' free ends: one path.
+        (false, false) => {}
+    }
+    ends.arc[b as usize] = cc;
+    ends.arc[cc as usize] = b;
+    true
 }
