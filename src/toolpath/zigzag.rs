@@ -218,10 +218,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
                 if rb == rc || (open[rb as usize] && open[rc as usize]) {
                     continue;
                 }
-                ends.arc[a as usize] = d;
-                ends.arc[d as usize] = a;
-                ends.arc[b as usize] = cc;
-                ends.arc[cc as usize] = b;
+                ends.rejoin(b, cc);
                 stats.splices += 1;
                 spliced = true;
                 break 'curves;
@@ -314,10 +311,10 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
 /// could not (their arcs on it are not neighbours). Of ends `b` and `c` of two pieces on one
 /// curve (two paths only by free ends), `c` the first end after `b` along the curve that
 /// belongs to another such piece, the pair with the shortest stretch from `b` to `c` is joined
-/// by an arc: where both have arcs, `(a, b)` and `(c, d)` become `(a, d)` and `(b, c)`; where
-/// one is a path's free end, the other's arc is broken and its mate becomes the path's new
-/// free end; two free ends are joined as they are. The two
-/// pieces become one; the new arcs run over the ends between `b` and `c` (and `(a, d)` over
+/// by an arc ([`Ends::rejoin`]): where both have arcs, `(a, b)` and `(c, d)` become `(a, d)`
+/// and `(b, c)`; where one is a path's free end, the other's arc is broken and its mate
+/// becomes the path's new free end; two free ends are joined as they are. The two pieces
+/// become one; the new arcs run over the ends between `b` and `c` (and `(a, d)` over
 /// both old arcs' stretches), so that stretch of curve is laid twice: a doubled stretch
 /// instead of a jump and a new start. Returns whether it spliced.
 fn splice_across(ends: &mut Ends, curves: &[KeepOut<'_>], parent: &mut [u16; ENDS]) -> bool {
@@ -353,18 +350,6 @@ fn splice_across(ends: &mut Ends, curves: &[KeepOut<'_>], parent: &mut [u16; END
     let Some((_, b, cc)) = best else {
         return false;
     };
-    let (a, d) = (ends.arc[b as usize], ends.arc[cc as usize]);
-    match (a != NONE, d != NONE) {
-        (true, true) => {
-            ends.arc[a as usize] = d;
-            ends.arc[d as usize] = a;
-        }
-        (true, false) => ends.arc[a as usize] = NONE,
-        (false, true) => ends.arc[d as usize] = NONE,
-        // Two paths' free ends: one path.
-        (false, false) => {}
-    }
-    ends.arc[b as usize] = cc;
-    ends.arc[cc as usize] = b;
+    ends.rejoin(b, cc);
     true
 }

@@ -58,7 +58,6 @@ impl OffsetSpiral {
             } else {
                 [-0.5f32, 0.0, 0.5 * g, g, g + 0.5]
             };
-
             for (m, off) in offsets.iter().enumerate() {
                 if off.is_nan() {
                     continue;

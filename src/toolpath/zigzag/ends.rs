@@ -149,6 +149,21 @@ impl Ends {
         }
     }
 
+    /// Joins ends `b` and `c` by an arc, their former mates to each other: arcs `(a, b)` and
+    /// `(c, d)` become `(a, d)` and `(b, c)` (a splice); where one of them was free, the
+    /// other's former mate is left free instead.
+    pub(super) fn rejoin(&mut self, b: u16, c: u16) {
+        let (a, d) = (self.arc[b as usize], self.arc[c as usize]);
+        if a != NONE {
+            self.arc[a as usize] = d;
+        }
+        if d != NONE {
+            self.arc[d as usize] = a;
+        }
+        self.arc[b as usize] = c;
+        self.arc[c as usize] = b;
+    }
+
     /// Number of separate pieces (paths and loops) of MCLs and arcs.
     pub(super) fn pieces(&self, parent: &mut [u16; ENDS]) -> u16 {
         for (i, p) in parent.iter_mut().enumerate().take(self.count) {
