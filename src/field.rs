@@ -238,6 +238,13 @@ impl Field {
 
     /// Solves Laplace's equation by successive over-relaxation until no node moves more than
     /// [`FIELD_TOLERANCE`] or [`FIELD_MAX_SWEEPS`] have run.
+    ///
+    /// Each sweep visits the free nodes in node order (Gauss-Seidel). Between two boundary
+    /// nodes (in node order) the nodes are all free and regular, or all outside the cells: a
+    /// free node beside a node of another label is a boundary node itself, and the grid's
+    /// border nodes lie outside the wall. So a sweep runs from one boundary node to the next,
+    /// each stretch between them either skipped whole or relaxed with the plain five-point
+    /// stencil ([`relax_run`]), and never asks a node's label.
     pub fn solve(&mut self) {
         let nx = self.grid.nx;
         let n = self.grid.len();
@@ -250,29 +257,17 @@ impl Field {
         let mut residual = f32::INFINITY;
         while sweeps < FIELD_MAX_SWEEPS && residual > FIELD_TOLERANCE {
             residual = 0.0;
-            // The boundary entries are in node order: the next one's node, or past the end.
-            let mut cursor = 0;
-            let node_of = |c: usize| boundary.get(c).map_or(usize::MAX, |b| b.node as usize);
-            let mut next = node_of(0);
-            for k in 0..n {
-                if tags[k] >= KEEP_OUT {
-                    continue;
+            let mut k = 0;
+            // Every boundary node, then the end of the grid as a last stop.
+            for stop in boundary.iter().map(Some).chain(core::iter::once(None)) {
+                let end = stop.map_or(n, |b| b.node as usize);
+                if k < end && tags[k] < KEEP_OUT {
+                    residual = relax_run(values, nx, k, end, residual);
                 }
-                let target = if k == next {
-                    let b = &boundary[cursor];
-                    cursor += 1;
-                    next = node_of(cursor);
-                    weighted_average(values, nx, k, b)
-                } else {
-                    0.25 * (values[k + 1] + values[k - 1] + values[k + nx] + values[k - nx])
-                };
-                let old = values[k];
-                let new = old + FIELD_OMEGA * (target - old);
-                values[k] = new;
-                // A plain comparison, `fmax`'s answer for the change (never NaN).
-                let change = libm::fabsf(new - old);
-                if change > residual {
-                    residual = change;
+                if let Some(b) = stop {
+                    let target = weighted_average(values, nx, end, b);
+                    residual = over_relax(&mut values[end], target, residual);
+                    k = end + 1;
                 }
             }
             sweeps += 1;
@@ -411,4 +406,41 @@ fn weighted_average(values: &[f32], nx: usize, k: usize, b: &BoundaryNode) -> f3
         den += ap + am;
     }
     num / den
+}
+
+/// Moves `value` towards `target` by [`FIELD_OMEGA`]; the larger of `residual` and the change.
+fn over_relax(value: &mut f32, target: f32, residual: f32) -> f32 {
+    let old = *value;
+    let new = old + FIELD_OMEGA * (target - old);
+    *value = new;
+    // A plain comparison, `fmax`'s answer for the change (never NaN).
+    let change = libm::fabsf(new - old);
+    if change > residual {
+        change
+    } else {
+        residual
+    }
+}
+
+/// One Gauss-Seidel pass of the five-point stencil over nodes `start..end` of a grid `nx`
+/// nodes wide (free, regular nodes of one row: their row neighbours and the rows above and
+/// below exist); the larger of `residual` and the largest change.
+fn relax_run(values: &mut [f32], nx: usize, start: usize, end: usize, residual: f32) -> f32 {
+    let len = end - start;
+    // The row above, the run with a node either side, and the row below, as three slices
+    // (the run lies within one row: `len + 2 <= nx`).
+    let (before, rest) = values.split_at_mut(start);
+    let (run, after) = rest.split_at_mut(nx);
+    let up = &before[start - nx..start - nx + len];
+    let down = &after[..len];
+    let run = &mut run[..len + 1];
+    let mut left = before[start - 1];
+    let mut residual = residual;
+    for i in 0..len {
+        // The sum in the order of the stencil over every node: +x, -x, +y, -y.
+        let target = 0.25 * (run[i + 1] + left + down[i] + up[i]);
+        residual = over_relax(&mut run[i], target, residual);
+        left = run[i];
+    }
+    residual
 }

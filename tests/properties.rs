@@ -590,3 +590,37 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    /// `polyline::polylines_cross_segment_boxed` (the relaxation's test of a moved half
+    /// against many, each of its segments boxed once) answers as `polylines_cross`: random
+    /// polylines on a coarse lattice, so that they touch, share end points, run along each
+    /// other and cross at vertices as often as they cross cleanly.
+    #[test]
+    fn the_crossing_test_on_held_segment_boxes_answers_as_the_plain_one(
+        p in proptest::collection::vec((0i32..8, 0i32..8), 2..12),
+        q in proptest::collection::vec((0i32..8, 0i32..8), 2..12),
+        scale in prop_oneof![Just(1.0f32), Just(0.1), Just(37.3)],
+    ) {
+        use hollowpath::geometry::{polyline, primitives};
+        let at = |v: &[(i32, i32)]| -> Vec<Point> {
+            v.iter().map(|&(x, y)| Point::new(x as f32 * scale, y as f32 * scale)).collect()
+        };
+        let (p, q) = (at(&p), at(&q));
+        let mut room = [(Point::default(), Point::default()); 16];
+        let seg = polyline::segment_boxes(&p, &mut room).unwrap();
+        prop_assert_eq!(seg.len(), p.len() - 1);
+        let held = polyline::polylines_cross_segment_boxed(
+            &p,
+            seg,
+            primitives::bbox(&p),
+            &q,
+            primitives::bbox(&q),
+        );
+        prop_assert_eq!(held, polyline::polylines_cross(&p, &q), "{:?} and {:?}", p, q);
+        // Too little room is said, not overrun.
+        prop_assert!(polyline::segment_boxes(&p, &mut room[..p.len() - 2]).is_none());
+    }
+}

@@ -159,6 +159,66 @@ pub fn polylines_cross_boxed(
     false
 }
 
+/// The box of each segment of `p`, in order, into `out` (emptied first); `None` if `out`
+/// cannot hold them all.
+pub fn segment_boxes<'a>(
+    p: &[Point],
+    out: &'a mut [(Point, Point)],
+) -> Option<&'a [(Point, Point)]> {
+    let n = p.len().saturating_sub(1);
+    let out = out.get_mut(..n)?;
+    for (b, w) in out.iter_mut().zip(p.windows(2)) {
+        *b = (
+            Point::new(fmin(w[0].x, w[1].x), fmin(w[0].y, w[1].y)),
+            Point::new(fmax(w[0].x, w[1].x), fmax(w[0].y, w[1].y)),
+        );
+    }
+    Some(out)
+}
+
+/// [`polylines_cross_boxed`] for a caller that tests one polyline `p` against many and holds
+/// the box of each of its segments (`p_boxes`, from [`segment_boxes`]): the same answer, with
+/// each segment of `q` boxed once and compared with the boxes held, instead of each pair's
+/// boxes measured again.
+pub fn polylines_cross_segment_boxed(
+    p: &[Point],
+    p_boxes: &[(Point, Point)],
+    pb: (Point, Point),
+    q: &[Point],
+    qb: (Point, Point),
+) -> bool {
+    // Only the run of `p`'s segments from the first to the last that meets `q`'s box can meet
+    // a segment of `q` (each lies in that box).
+    let meets_q = |b: &(Point, Point)| boxes_overlap(*b, qb, 0.0);
+    let (Some(first), Some(last)) = (
+        p_boxes.iter().position(meets_q),
+        p_boxes.iter().rposition(meets_q),
+    ) else {
+        return false;
+    };
+    let run = &p_boxes[first..=last];
+    for b in q.windows(2) {
+        let (blo, bhi) = (
+            Point::new(fmin(b[0].x, b[1].x), fmin(b[0].y, b[1].y)),
+            Point::new(fmax(b[0].x, b[1].x), fmax(b[0].y, b[1].y)),
+        );
+        if !boxes_overlap((blo, bhi), pb, 0.0) {
+            continue;
+        }
+        for (i, &(alo, ahi)) in (first..).zip(run.iter()) {
+            // Boxes apart: the segments cannot meet.
+            if bhi.x < alo.x || blo.x > ahi.x || bhi.y < alo.y || blo.y > ahi.y {
+                continue;
+            }
+            let (a0, a1) = (p[i], p[i + 1]);
+            if segments_meet(a0, a1, b[0], b[1]) && !only_shared_end(a0, a1, b[0], b[1]) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// Whether segments `ab` and `cd` (which meet) touch only at an end point both have.
 fn only_shared_end(a: Point, b: Point, c: Point, d: Point) -> bool {
     let shared = if a == c || a == d {

@@ -300,13 +300,38 @@ pub(crate) fn crosses_finished_chunked(
     holes: &[u8],
 ) -> bool {
     let bb = primitives::bbox(pts);
+    // `pts` is one half's points (at most `HALF_POINTS`), its segments boxed once for all
+    // the halves it is tested against.
+    let mut room = [(Point::default(), Point::default()); HALF_POINTS];
+    let Some(seg) = polyline::segment_boxes(pts, &mut room) else {
+        return crosses_finished_boxed(halves, |k, _| index.boxes[k], pts, skip, holes);
+    };
     let n = index.run;
     index.runs.iter().enumerate().any(|(c, &run)| {
-        let box_of = |k: usize| index.boxes[k];
         polyline::boxes_overlap(bb, run, 1e-4)
-            && (c * n..((c + 1) * n).min(halves.len()))
-                .any(|k| crosses_half(halves, k, &halves[k], || box_of(k), pts, bb, skip, holes))
+            && (c * n..((c + 1) * n).min(halves.len())).any(|k| {
+                counts(&halves[k], k, skip, holes) && {
+                    let hb = index.boxes[k];
+                    polyline::boxes_overlap(bb, hb, 1e-4)
+                        && polyline::polylines_cross_segment_boxed(
+                            pts,
+                            seg,
+                            bb,
+                            halves.points_of(&halves[k]),
+                            hb,
+                        )
+                }
+            })
     })
+}
+
+/// Whether finished half `k` (`h`) is one [`crosses_finished`] tests: alive, of one of
+/// `holes`, not in `skip`, and finished (at the wall, or matched).
+fn counts(h: &Half, k: usize, skip: &[usize], holes: &[u8]) -> bool {
+    h.alive
+        && holes.contains(&h.hole)
+        && !skip.contains(&k)
+        && (h.end == HalfEnd::Wall || h.partner.is_some())
 }
 
 /// Whether finished half `k` (`h`, its box from `hb`) counts for [`crosses_finished`] and
@@ -322,11 +347,7 @@ fn crosses_half(
     skip: &[usize],
     holes: &[u8],
 ) -> bool {
-    if !(h.alive
-        && holes.contains(&h.hole)
-        && !skip.contains(&k)
-        && (h.end == HalfEnd::Wall || h.partner.is_some()))
-    {
+    if !counts(h, k, skip, holes) {
         return false;
     }
     let hb = hb();

@@ -82,15 +82,18 @@ pub fn relax(
             .push(primitives::union_all(run))
             .map_err(|_| Limit::Halves.error())?;
     }
+    // The order of each sweep's ends by `x` (`EndIndex`), kept here for every sweep.
+    let mut by_x: Vec<u16, MAX_HALVES> = Vec::new();
     for _ in 0..settings.relax_iterations {
         // Jacobi-style: every step is computed from the same state, then applied, so the
         // result does not depend on the order of the ends (symmetric slices stay symmetric).
         let list = ends(halves)?;
+        let index = EndIndex::new(halves, &list, &mut by_x)?;
         let mut steps: Vec<Point, MAX_HALVES> = Vec::new();
-        for &e in list.iter() {
+        for k in 0..list.len() {
             // Never full: one step per end, and `list` has the same capacity.
             steps
-                .push(relax_step(halves, &ring, &list, e as usize, spacing))
+                .push(relax_step(halves, &ring, &index, k, spacing))
                 .map_err(|_| Limit::Halves.error())?;
         }
         let mut moved = false;
@@ -117,12 +120,13 @@ pub fn relax(
     // Thinning: remove the most crowded end until no two ends are closer than the spacing.
     loop {
         let list = ends(halves)?;
+        let index = EndIndex::new(halves, &list, &mut by_x)?;
         let mut worst: Option<(usize, usize)> = None;
-        for &e in list.iter() {
-            let here = halves.end_point(e as usize);
-            let crowd = list
-                .iter()
-                .filter(|&&o| o != e && halves.end_point(o as usize).dist(here) < spacing - 1e-4)
+        for (k, &e) in list.iter().enumerate() {
+            let here = index.at(k);
+            let crowd = index
+                .near(here, spacing)
+                .filter(|&o| o != k && index.at(o).dist(here) < spacing - 1e-4)
                 .count();
             if crowd > 0 && worst.is_none_or(|w| crowd > w.1) {
                 worst = Some((e as usize, crowd));
@@ -138,11 +142,71 @@ pub fn relax(
     Ok(())
 }
 
-/// The relaxation step of end `e`: towards the middle of its neighbours around the hole(s) it
-/// joins (smoothing), and away from every end nearer than `spacing` (repulsion), at most half
-/// the spacing long.
-fn relax_step(halves: &Halves, ring: &[(u16, u16)], list: &[u16], e: usize, spacing: f32) -> Point {
-    let here = halves.end_point(e);
+/// The ends of one sweep (`list`, by position there) in the order of their points' `x`, so
+/// that the ends near a point are found by two binary searches instead of measuring every
+/// end (the relaxation's sweeps measured every pair: a third of the plan's work).
+struct EndIndex<'a> {
+    halves: &'a Halves,
+    list: &'a [u16],
+    /// Positions in `list`, by the `x` of their end point (then by position).
+    by_x: &'a [u16],
+}
+
+// A position in `list` is a `u16` in `by_x`.
+const _: () = assert!(MAX_HALVES <= u16::MAX as usize + 1);
+
+impl<'a> EndIndex<'a> {
+    /// The index of `list`'s ends, its order kept in `by_x` (emptied first).
+    fn new(
+        halves: &'a Halves,
+        list: &'a [u16],
+        by_x: &'a mut Vec<u16, MAX_HALVES>,
+    ) -> Result<EndIndex<'a>, Error> {
+        by_x.clear();
+        for k in 0..list.len() {
+            // Never full: one per end, and `list` has the same capacity.
+            by_x.push(k as u16).map_err(|_| Limit::Halves.error())?;
+        }
+        let x = |k: u16| halves.end_point(list[k as usize] as usize).x;
+        by_x.sort_unstable_by(|&a, &b| x(a).total_cmp(&x(b)).then(a.cmp(&b)));
+        Ok(EndIndex { halves, list, by_x })
+    }
+
+    /// The end point of position `k`.
+    fn at(&self, k: usize) -> Point {
+        self.halves.end_point(self.list[k] as usize)
+    }
+
+    /// Every position whose end lies within `reach` of `p` in `x` (with room to spare: twice
+    /// `reach`, so that every end nearer `p` than `reach`, as `dist` rounds it, is among
+    /// them), and some more, in the order of their `x`.
+    fn near(&self, p: Point, reach: f32) -> impl Iterator<Item = usize> + '_ {
+        let (lo, hi) = (p.x - 2.0 * reach, p.x + 2.0 * reach);
+        let x = |k: &u16| self.at(*k as usize).x;
+        let first = self.by_x.partition_point(|k| x(k) < lo);
+        let last = self.by_x.partition_point(|k| x(k) <= hi);
+        self.by_x[first..last.max(first)]
+            .iter()
+            .map(|&k| k as usize)
+    }
+}
+
+/// Ends nearer each other than the spacing that [`relax_step`] sums in order from a buffer;
+/// a crowd larger than that is summed by a pass over every end.
+const CROWD: usize = 16;
+
+/// The relaxation step of end `list[k]` (`index` holds the sweep's ends): towards the middle
+/// of its neighbours around the hole(s) it joins (smoothing), and away from every end nearer
+/// than `spacing` (repulsion, summed in the order of `list`), at most half the spacing long.
+fn relax_step(
+    halves: &Halves,
+    ring: &[(u16, u16)],
+    index: &EndIndex<'_>,
+    k: usize,
+    spacing: f32,
+) -> Point {
+    let list = index.list;
+    let (e, here) = (list[k] as usize, index.at(k));
     let mut pull = Point::default();
     for k in [Some(e), halves[e].partner.map(|p| p as usize)]
         .into_iter()
@@ -155,22 +219,44 @@ fn relax_step(halves: &Halves, ring: &[(u16, u16)], list: &[u16], e: usize, spac
         );
         pull = pull + ((prev - here) + (next - here)) * 0.25;
     }
+    // The ends nearer than `spacing`, in the order of `list` (the order the sum took when it
+    // ran over every end): from the index, sorted, or where more crowd here than the buffer
+    // holds, by a pass over every end.
+    let near = |o: usize| o != k && here.dist(index.at(o)) < spacing;
+    let mut crowd: Vec<u16, CROWD> = Vec::new();
+    let mut overflow = false;
+    for o in index.near(here, spacing).filter(|&o| near(o)) {
+        // A position is a `u16` (`EndIndex`).
+        if crowd.push(o as u16).is_err() {
+            overflow = true;
+            break;
+        }
+    }
+    crowd.sort_unstable();
+    debug_assert!(
+        overflow
+            || crowd
+                .iter()
+                .map(|&o| o as usize)
+                .eq((0..list.len()).filter(|&o| near(o))),
+        "the index missed an end near end {e}"
+    );
     let mut push = Point::default();
-    for &o in list.iter() {
-        let o = o as usize;
-        if o == e {
-            continue;
-        }
-        let d = here.dist(halves.end_point(o));
-        if d < spacing {
-            let away = if d > 1e-6 {
-                (here - halves.end_point(o)) * (1.0 / d)
-            } else {
-                // Coincident ends: push along the order of their starts.
-                Point::new(if e < o { -1.0 } else { 1.0 }, 0.0)
-            };
-            push = push + away * (0.5 * (spacing - d));
-        }
+    let mut repel = |o: usize| {
+        let there = index.at(o);
+        let d = here.dist(there);
+        let away = if d > 1e-6 {
+            (here - there) * (1.0 / d)
+        } else {
+            // Coincident ends: push along the order of their starts.
+            Point::new(if e < list[o] as usize { -1.0 } else { 1.0 }, 0.0)
+        };
+        push = push + away * (0.5 * (spacing - d));
+    };
+    if overflow {
+        (0..list.len()).filter(|&o| near(o)).for_each(&mut repel);
+    } else {
+        crowd.iter().for_each(|&o| repel(o as usize));
     }
     let step = pull + push;
     let len = step.norm();
