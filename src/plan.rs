@@ -270,6 +270,8 @@ impl Planner {
 /// The final check on the halves: a half (with its partner) is removed if, after matching and
 /// relaxation dragged it, a segment leaves the printable region or it crosses another half of
 /// its cell. Whatever survives has the properties [`verify`](crate::verify::verify) checks.
+// Not inlined: its boxes stay in a frame of its own, which the planner's other phases share.
+#[inline(never)]
 fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
     use crate::geometry::polyline;
     let remove = |halves: &mut Halves, k: usize, stats: &mut PlanStats| {
@@ -288,8 +290,14 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
             remove(halves, k, stats);
         }
     }
+    // Every half's box, measured once for all the pairs it is in (`halves` has the same
+    // capacity: the indices fit).
+    let mut boxes = [(Point::default(), Point::default()); MAX_HALVES];
+    for (k, b) in boxes.iter_mut().enumerate().take(halves.len()) {
+        *b = primitives::bbox(halves.points(k));
+    }
     for a in 0..halves.len() {
-        let box_a = primitives::bbox(halves.points(a));
+        let box_a = boxes[a];
         for b in (a + 1)..halves.len() {
             let (ha, hb) = (&halves[a], &halves[b]);
             if !ha.alive || !hb.alive || ha.partner == Some(b as u16) {
@@ -299,7 +307,7 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
                 || ha.end == HalfEnd::Bisector(hb.hole)
                 || hb.end == HalfEnd::Bisector(ha.hole);
             if related
-                && polyline::boxes_overlap(box_a, primitives::bbox(halves.points(b)), 1e-4)
+                && polyline::boxes_overlap(box_a, boxes[b], 1e-4)
                 && polyline::polylines_cross(halves.points(a), halves.points(b))
             {
                 remove(halves, b, stats);

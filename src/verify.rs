@@ -71,6 +71,9 @@ pub enum Violation {
 pub const ON_CURVE_TOL: f32 = 2e-3;
 
 /// Checks every property of `plan` for `slice`; the first violation found is returned.
+// Not inlined: its working set (every MCL's box) stays in a frame of its own instead of its
+// caller's, which every other phase would then carry.
+#[inline(never)]
 pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
     let settings = slice.settings();
     let half = 0.5 * settings.road_width;
@@ -155,6 +158,12 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
             return Err(Violation::Dangling { half: h as u16 });
         }
     }
+    // Every MCL's box, measured once for all the pairs it is in (`plan.mcls` has the same
+    // capacity: the indices fit).
+    let mut boxes = [(Point::default(), Point::default()); crate::config::MAX_MCLS];
+    for (k, m) in plan.mcls.iter().enumerate() {
+        boxes[k] = plan.mcl_box(m);
+    }
     for (a, ma) in plan.mcls.iter().enumerate() {
         let pa = plan.points(ma);
         let ba = primitives::bbox(&pa);
@@ -165,7 +174,7 @@ pub fn verify(slice: &Slice, plan: &Plan) -> Result<(), Violation> {
                     b: b as u16,
                 });
             }
-            if polyline::boxes_overlap(ba, plan.mcl_box(mb), 1e-4)
+            if polyline::boxes_overlap(ba, boxes[b], 1e-4)
                 && polyline::polylines_cross(&pa, &plan.points(mb))
             {
                 return Err(Violation::Crossing {
