@@ -282,6 +282,18 @@ impl Field {
     }
 
     fn boundary_entry(&self, k: usize) -> Option<&BoundaryNode> {
+        // A free node (never on the grid's border: those lie outside the wall) whose four
+        // neighbours carry its label is regular (only a free node beside another label has
+        // an entry): no search.
+        let tags = &self.mem.tags;
+        let l = tags[k];
+        if l < KEEP_OUT
+            && ARMS
+                .iter()
+                .all(|&(dx, dy)| tags[self.neighbour(k, dx, dy)] == l)
+        {
+            return None;
+        }
         self.boundary
             .binary_search_by_key(&(k as u16), |b| b.node)
             .ok()
