@@ -356,16 +356,39 @@ fn widened(
         if far || (f != own && clear_beyond(slice, f, d, p + n * ridge, ridge)) {
             continue;
         }
-        if gap(f, ridge) >= -tol {
+        let at_ridge = gap(f, ridge);
+        if at_ridge >= -tol {
             continue;
         }
+        // The gap falls by at most 2 a unit of `t` (`D_f` is 1-Lipschitz along the ray, and
+        // `t` rises by 1): from a bound of it at `lo` (below) or `hi` (above), a step whose
+        // answer those bounds already give, with room for the rounding of both values the
+        // bound rests on, is taken without measuring: the same steps as measuring each, so
+        // the same ridge to the bit. (`below` is unknown at 0 until a step measures.)
+        let sure = 2.0 * polygon::rounding_slack(p, slice.wall().bbox()) + 1e-5 * w;
         let (mut lo, mut hi) = (0.0f32, ridge);
+        let (mut below, mut above) = (f32::NEG_INFINITY, at_ridge);
         for _ in 0..RIDGE_STEPS {
             let mid = 0.5 * (lo + hi);
-            if gap(f, mid) >= -tol {
+            let (low, high) = (below - 2.0 * (mid - lo), above + 2.0 * (hi - mid));
+            let (holds, at) = if low >= sure - tol {
+                (true, low)
+            } else if high < -tol - sure {
+                (false, high)
+            } else {
+                let g = gap(f, mid);
+                (g >= -tol, g)
+            };
+            debug_assert!(
+                (gap(f, mid) >= -tol) == holds,
+                "the ridge search's bound at {mid} disagrees with the gap measured there"
+            );
+            if holds {
                 lo = mid;
+                below = at;
             } else {
                 hi = mid;
+                above = at;
                 // The ridge found will lie below `hi`, and the features after this one only
                 // lower it: nearer than [`NARROW_FLOOR`] the road keeps its width, whatever
                 // the rest of the search finds ([`narrowed`]).
