@@ -33,7 +33,7 @@ pub const MAX_STEP_RATE_HZ: f32 = 200_000.0;
 /// with room, and a wrapping deadline is unambiguous for minutes).
 pub const MAX_TICK_HZ: u32 = 100_000_000;
 /// Finest axis the engine accepts, steps per millimetre (so that every position within
-/// [`MAX_POSITION_MM`](super::planner::MAX_POSITION_MM) is an `i32` of steps).
+/// [`MAX_POSITION_MM`](super::block::MAX_POSITION_MM) is an `i32` of steps).
 pub const MAX_STEPS_PER_MM: f32 = 100_000.0;
 /// Longest step pulse or direction setup accepted, ns.
 pub const MAX_PULSE_NS: u32 = 100_000;
@@ -46,7 +46,7 @@ const _: () = assert!(MAX_STEP_RATE_HZ * MAX_SEGMENT_S + 1.0 < u16::MAX as f32);
 // A segment's duration in ticks is a `u32`, far from wrapping.
 const _: () = assert!((MAX_TICK_HZ as f32) * MAX_SEGMENT_S * 4.0 < u32::MAX as f32);
 // An absolute position in steps is an `i32` (both ways, with room for a displacement).
-const _: () = assert!(MAX_STEPS_PER_MM * super::planner::MAX_POSITION_MM * 2.0 < i32::MAX as f32);
+const _: () = assert!(MAX_STEPS_PER_MM * super::block::MAX_POSITION_MM * 2.0 < i32::MAX as f32);
 // A pulse in ticks is a `u32`: at most MAX_PULSE_NS at MAX_TICK_HZ.
 const _: () =
     assert!((MAX_PULSE_NS as u64) * (MAX_TICK_HZ as u64) / 1_000_000_000 < u32::MAX as u64);
@@ -313,7 +313,7 @@ impl PrinterConfig {
                 return Err(PrinterError::StepRate { axis, rate, limit });
             }
             if !self.home[i].is_finite()
-                || libm::fabsf(self.home[i]) > super::planner::MAX_POSITION_MM
+                || libm::fabsf(self.home[i]) > super::block::MAX_POSITION_MM
             {
                 return Err(PrinterError::Home { axis });
             }
@@ -406,7 +406,7 @@ pub const MAX_LAYER_HEIGHT_MM: f32 = 10.0;
 /// whole range is not a homing move (and its steps fit a u32); a layer no printer lays.
 pub(crate) fn upper_bound(key: &str) -> Option<f32> {
     match key {
-        "homing_travel" => Some(2.0 * super::planner::MAX_POSITION_MM),
+        "homing_travel" => Some(2.0 * super::block::MAX_POSITION_MM),
         "layer_height" => Some(MAX_LAYER_HEIGHT_MM),
         _ => None,
     }

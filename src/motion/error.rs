@@ -52,7 +52,7 @@ pub enum PrinterError {
         /// The value.
         value: f32,
     },
-    /// `home[axis]` is not finite or beyond [`MAX_POSITION_MM`](super::planner::MAX_POSITION_MM).
+    /// `home[axis]` is not finite or beyond [`MAX_POSITION_MM`](super::block::MAX_POSITION_MM).
     Home {
         /// The axis.
         axis: u8,
@@ -151,7 +151,7 @@ impl fmt::Display for PrinterError {
                 f,
                 "home.{}: not a finite number within {} mm",
                 axis(a),
-                super::planner::MAX_POSITION_MM
+                super::block::MAX_POSITION_MM
             ),
             PrinterError::Pulse { key, value } => write!(
                 f,

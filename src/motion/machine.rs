@@ -9,8 +9,9 @@
 //! apart while moving. A board with an emergency-stop interrupt calls
 //! [`Machine::emergency_stop`] from it directly.
 
+use super::block::{Block, BlockMaker, OutOfRange};
 use super::config::{PrinterConfig, PrinterError, AXES, SEGMENT_RING};
-use super::planner::{Block, BlockMaker, OutOfRange, Planner};
+use super::planner::Planner;
 use super::stepper::{SegmentGen, StepTimer, Stepper, Ticks};
 use super::valve::Valves;
 use super::Board;

@@ -106,6 +106,7 @@
 //! the other way. No allocation, no `unsafe`, all math through `libm`: the same moves give the
 //! same edges on the host and on the MCU.
 
+pub mod block;
 pub mod config;
 pub mod error;
 pub mod machine;
@@ -113,9 +114,10 @@ pub mod planner;
 pub mod stepper;
 pub mod valve;
 
+pub use block::{Block, BlockMaker, Profile};
 pub use config::{AxisConfig, ChannelConfig, CurvePoint, Endstop, PrinterConfig, PrinterError};
 pub use machine::{Fault, Machine, Refused, State};
-pub use planner::{Block, BlockMaker, Full, Planner, Profile};
+pub use planner::{Full, Planner};
 pub use stepper::{Late, Segment, SegmentGen, StepTimer, Stepper, Ticks};
 
 use embedded_hal::digital::{InputPin, OutputPin};

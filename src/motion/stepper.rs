@@ -18,8 +18,9 @@
 //! after a change waits the direction setup time. Per alarm: integer adds and compares, one
 //! pin write per stepping axis.
 
+use super::block::{Block, Profile};
 use super::config::{PrinterConfig, AXES, MAX_SEGMENT_S, SEGMENT_RING, SEGMENT_S};
-use super::planner::{Block, Planner, Profile};
+use super::planner::Planner;
 use super::Board;
 use crate::config::CHANNELS;
 use embedded_hal::digital::OutputPin;
