@@ -30,6 +30,7 @@
 
 mod join;
 mod loops;
+mod ridge;
 mod trace;
 mod walk;
 
