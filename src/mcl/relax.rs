@@ -14,7 +14,7 @@ use heapless::Vec;
 use crate::cells::{onto_bisector, Cells};
 use crate::config::MAX_HALVES;
 use crate::error::{Error, Limit};
-use crate::geometry::{polygon, polyline, primitives, Point};
+use crate::geometry::{polyline, primitives, Point};
 use crate::mcl::insert::sorted_halves;
 use crate::mcl::matching::{crosses_finished_chunked, HalfBoxes};
 use crate::mcl::{reshape_end, Half, HalfEnd, Halves};
@@ -303,12 +303,15 @@ fn try_move(
             (on, Some((k, nu)))
         }
         _ => {
+            // The wall's chunked distance query (`Feature::nearest`) for the nearest edge and
+            // point, and its sign for the side.
             let wall = slice.wall().points();
-            let (_, _, edge) = polygon::closest(wall, here);
+            let edge = slice.wall().nearest(here).edge;
             let t = (wall[(edge + 1) % wall.len()] - wall[edge]).normalized();
             let moved = here + t * push.dot(t);
-            let (c, _, _) = polygon::closest(wall, moved);
-            let inward = if polygon::contains(wall, moved) {
+            let near = slice.wall().nearest(moved);
+            let c = near.point;
+            let inward = if near.distance < 0.0 {
                 moved - c
             } else {
                 c - moved
