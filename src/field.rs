@@ -16,11 +16,11 @@ use heapless::Vec;
 
 use crate::config::{
     BOUNDARY_NODES, FIELD_MAX_SWEEPS, FIELD_OMEGA, FIELD_TOLERANCE, GRID_NODES, GRID_SPACING_NODES,
-    GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD,
+    GRID_SPACING_PER_ROAD, MAX_GRID_SPACING_PER_ROAD, MAX_VERTICES,
 };
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, Grid, Point};
-use crate::{Error, Limit, Slice};
+use crate::{Error, Feature, Limit, Slice};
 
 /// Label of a node outside the wall's printable region.
 pub const OUTSIDE: u8 = 0xFF;
@@ -147,11 +147,19 @@ impl Field {
         // whether the grid fits.
         self.grid = fitted_grid(lo, hi, w * GRID_SPACING_PER_ROAD, w, false)?;
         let half = 0.5 * w;
+        // Where the wall crosses the current row of nodes: each node's containment from them
+        // (the crossing test's answer, one pass over the wall's edges a row).
+        let mut crossings: Vec<f32, MAX_VERTICES> = Vec::new();
         for k in 0..self.grid.len() {
             let p = self.grid.node(k);
+            if k % self.grid.nx == 0 {
+                slice.wall().row_crossings(p.y, &mut crossings);
+            }
+            let inside = Feature::inside_by_crossings(&crossings, p.x);
+            debug_assert_eq!(inside, slice.wall().contains(p), "containment at {p:?}");
             // Outside the wall the node is outside whatever its distances (the containment
             // test is the sign of the wall's distance).
-            let (label, u0) = if !slice.wall().contains(p) {
+            let (label, u0) = if !inside {
                 (OUTSIDE, 1.0)
             } else {
                 let (i, di, _, dj) = slice.nearest_holes(p);

@@ -300,6 +300,14 @@ proptest! {
                 hollowpath::geometry::polygon::contains(v, p),
                 "point {:?}", p
             );
+            // The field labels a row of nodes from the wall's crossings of the row's line.
+            let mut crossings = heapless::Vec::new();
+            f.row_crossings(p.y, &mut crossings);
+            prop_assert_eq!(
+                Feature::inside_by_crossings(&crossings, p.x),
+                f.contains(p),
+                "point {:?} by the row's crossings", p
+            );
         }
     }
 }

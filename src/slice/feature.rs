@@ -382,6 +382,35 @@ impl Feature {
             .fold(f32::INFINITY, |m, d| if d < m { d } else { m })
     }
 
+    /// Where the boundary crosses the horizontal line at `y`: the `x` of every edge with one
+    /// end above `y` and the other not, computed as [`contains`](Self::contains) computes it,
+    /// into `out` (emptied first), in increasing order. A point `p` with `p.y == y` is inside
+    /// exactly where an odd number of them lie right of it ([`inside_by_crossings`]): the
+    /// answer of `contains` for a whole row of points from one pass over the edges.
+    pub fn row_crossings(&self, y: f32, out: &mut Vec<f32, MAX_VERTICES>) {
+        out.clear();
+        let n = self.points.len();
+        for k in 0..n {
+            let (a, b) = (self.points[(k + 1) % n], self.points[k]);
+            if (a.y > y) != (b.y > y) {
+                let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
+                // One crossing an edge at most, and `out` holds one per vertex: never full.
+                if out.push(x).is_err() {
+                    break;
+                }
+            }
+        }
+        out.sort_unstable_by(f32::total_cmp);
+    }
+
+    /// Whether a point at `x` on the line whose crossings are `crossings` (increasing,
+    /// [`row_crossings`](Self::row_crossings)) is inside: an odd number of them lie right of
+    /// it (`x < c`), as [`contains`](Self::contains) counts them.
+    pub fn inside_by_crossings(crossings: &[f32], x: f32) -> bool {
+        let right = crossings.len() - crossings.partition_point(|&c| c <= x);
+        right % 2 == 1
+    }
+
     /// Whether `p` is inside the polygon: [`polygon::contains`]'s even-odd crossing test,
     /// with the same answer, on the edges of the chunks whose box straddles `p`'s horizontal
     /// line right of `p` only. An edge flips the count only if one end is above `p.y` and the
