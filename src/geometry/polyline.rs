@@ -135,10 +135,7 @@ pub fn polylines_cross_boxed(
     // Segments `first ..= last` are points `first ..= last + 1`.
     let q = &q[first..last + 2];
     for a in p.windows(2) {
-        let (alo, ahi) = (
-            Point::new(fmin(a[0].x, a[1].x), fmin(a[0].y, a[1].y)),
-            Point::new(fmax(a[0].x, a[1].x), fmax(a[0].y, a[1].y)),
-        );
+        let (alo, ahi) = segment_box(a[0], a[1]);
         if !boxes_overlap((alo, ahi), qb, 0.0) {
             continue;
         }
@@ -168,10 +165,7 @@ pub fn segment_boxes<'a>(
     let n = p.len().saturating_sub(1);
     let out = out.get_mut(..n)?;
     for (b, w) in out.iter_mut().zip(p.windows(2)) {
-        *b = (
-            Point::new(fmin(w[0].x, w[1].x), fmin(w[0].y, w[1].y)),
-            Point::new(fmax(w[0].x, w[1].x), fmax(w[0].y, w[1].y)),
-        );
+        *b = segment_box(w[0], w[1]);
     }
     Some(out)
 }
@@ -198,10 +192,7 @@ pub fn polylines_cross_segment_boxed(
     };
     let run = &p_boxes[first..=last];
     for b in q.windows(2) {
-        let (blo, bhi) = (
-            Point::new(fmin(b[0].x, b[1].x), fmin(b[0].y, b[1].y)),
-            Point::new(fmax(b[0].x, b[1].x), fmax(b[0].y, b[1].y)),
-        );
+        let (blo, bhi) = segment_box(b[0], b[1]);
         if !boxes_overlap((blo, bhi), pb, 0.0) {
             continue;
         }
@@ -217,6 +208,15 @@ pub fn polylines_cross_segment_boxed(
         }
     }
     false
+}
+
+/// The box of segment `ab`: (min, max).
+#[inline]
+fn segment_box(a: Point, b: Point) -> (Point, Point) {
+    (
+        Point::new(fmin(a.x, b.x), fmin(a.y, b.y)),
+        Point::new(fmax(a.x, b.x), fmax(a.y, b.y)),
+    )
 }
 
 /// Whether segments `ab` and `cd` (which meet) touch only at an end point both have.
