@@ -73,6 +73,15 @@ pub fn match_all(
     stats: &mut PlanStats,
 ) -> Result<(), Error> {
     let settings = *slice.settings();
+    // Every half's box, kept as halves are joined: each join is checked against the finished
+    // halves, and measuring every one of them again for each was most of the check's work.
+    let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
+    for k in 0..halves.len() {
+        // Never full: one box per half, and `halves` has the same capacity.
+        boxes
+            .push(primitives::bbox(halves.points(k)))
+            .map_err(|_| Limit::Halves.error())?;
+    }
     // Put every bisector end on its bisector piece.
     for x in 0..halves.len() {
         let e = halves.end_point(x);
@@ -188,7 +197,13 @@ pub fn match_all(
                     bis.b as usize,
                     polyline::point_at(&bis.points, ustar),
                 );
-                if try_join(halves, me.half as usize, other.half as usize, pstar) {
+                if try_join(
+                    halves,
+                    &mut boxes,
+                    me.half as usize,
+                    other.half as usize,
+                    pstar,
+                ) {
                     chosen = Some(c);
                     // Never full: a match uses up two candidates (of the same capacity).
                     matches
@@ -224,46 +239,41 @@ pub fn match_all(
 
 /// Rebuilds halves `x` and `y` to meet at `pstar`, unless that makes them cross a finished
 /// MCL (a wall half or a matched half); on success they become partners.
-fn try_join(halves: &mut Halves, x: usize, y: usize, pstar: Point) -> bool {
+/// `boxes` holds every half's box and is kept so.
+fn try_join(
+    halves: &mut Halves,
+    boxes: &mut [(Point, Point)],
+    x: usize,
+    y: usize,
+    pstar: Point,
+) -> bool {
     let mut px = halves.points_copy(x);
     let mut py = halves.points_copy(y);
     reshape_end(&mut px, pstar);
     reshape_end(&mut py, pstar);
     let holes = [halves[x].hole, halves[y].hole];
-    if crosses_finished(halves, &px, &[x, y], &holes)
-        || crosses_finished(halves, &py, &[x, y], &holes)
+    let held = |k: usize, _: &Half| boxes[k];
+    if crosses_finished_boxed(halves, held, &px, &[x, y], &holes)
+        || crosses_finished_boxed(halves, held, &py, &[x, y], &holes)
     {
         return false;
     }
     halves[x].partner = Some(y as u16);
     halves[y].partner = Some(x as u16);
+    boxes[x] = primitives::bbox(&px);
+    boxes[y] = primitives::bbox(&py);
     halves.set_points(x, &px);
     halves.set_points(y, &py);
     true
 }
 
-/// Whether `pts` crosses any finished, alive half other than those in `skip`.
+/// Whether `pts` crosses any finished, alive half other than those in `skip`, each half's
+/// bounding box from `box_of` (the half's index and the half; exactly `bbox` of its points:
+/// a caller that checks many moves keeps the boxes instead of measuring every half again for
+/// each).
 ///
 /// Only halves of the holes in `holes` are looked at: a half stays in its own cell, so it can
 /// only meet halves of its own hole or of the hole across the bisector it ends on.
-pub(crate) fn crosses_finished(
-    halves: &Halves,
-    pts: &[Point],
-    skip: &[usize],
-    holes: &[u8],
-) -> bool {
-    crosses_finished_boxed(
-        halves,
-        |k, _| primitives::bbox(halves.points(k)),
-        pts,
-        skip,
-        holes,
-    )
-}
-
-/// [`crosses_finished`] with each half's bounding box from `box_of` (the half's index and
-/// the half; exactly `bbox` of its points): a caller that checks many moves keeps the boxes
-/// instead of measuring every half again for each.
 pub(crate) fn crosses_finished_boxed(
     halves: &Halves,
     box_of: impl Fn(usize, &Half) -> (Point, Point),
@@ -325,7 +335,7 @@ pub(crate) fn crosses_finished_chunked(
     })
 }
 
-/// Whether finished half `k` (`h`) is one [`crosses_finished`] tests: alive, of one of
+/// Whether finished half `k` (`h`) is one [`crosses_finished_boxed`] tests: alive, of one of
 /// `holes`, not in `skip`, and finished (at the wall, or matched).
 fn counts(h: &Half, k: usize, skip: &[usize], holes: &[u8]) -> bool {
     h.alive
@@ -334,7 +344,7 @@ fn counts(h: &Half, k: usize, skip: &[usize], holes: &[u8]) -> bool {
         && (h.end == HalfEnd::Wall || h.partner.is_some())
 }
 
-/// Whether finished half `k` (`h`, its box from `hb`) counts for [`crosses_finished`] and
+/// Whether finished half `k` (`h`, its box from `hb`) counts for [`crosses_finished_boxed`] and
 /// crosses `pts` (whose box is `bb`).
 #[allow(clippy::too_many_arguments)]
 fn crosses_half(
