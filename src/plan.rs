@@ -48,6 +48,18 @@ impl Plan {
         })
     }
 
+    /// The first and last points of an MCL as [`points`](Self::points) gives them, without
+    /// copying it: its start on the `from` hole, and its end on the wall or the `to` hole
+    /// (the second half runs from that hole to the joint, so its first point).
+    pub fn mcl_ends(&self, mcl: &Mcl) -> (Point, Point) {
+        let first = self.halves.points(mcl.first as usize);
+        let last = match mcl.second {
+            Some(s) => self.halves.points(s as usize)[0],
+            None => first[first.len() - 1],
+        };
+        (first[0], last)
+    }
+
     /// The points of an MCL as [`points`](Self::points) gives them, without copying them.
     pub fn points_iter(&self, mcl: &Mcl) -> impl Iterator<Item = Point> + '_ {
         let first = self.halves.points(mcl.first as usize).iter();
@@ -217,7 +229,7 @@ impl Planner {
         )?;
         matching::match_all(slice, &plan.cells, &mut plan.halves, &mut plan.stats)?;
         relax::relax(slice, &plan.cells, &mut plan.halves, &mut plan.stats)?;
-        sanitize(slice, &mut plan.halves, &mut plan.stats);
+        sanitize(slice, &mut plan.halves, &mut plan.stats)?;
         // Compact the halves (remapping partners), then list the MCLs.
         let mut remap: Vec<u16, MAX_HALVES> = Vec::new();
         let mut next = 0u16;
@@ -272,7 +284,7 @@ impl Planner {
 /// its cell. Whatever survives has the properties [`verify`](crate::verify::verify) checks.
 // Not inlined: its boxes stay in a frame of its own, which the planner's other phases share.
 #[inline(never)]
-fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
+fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) -> Result<(), Error> {
     use crate::geometry::polyline;
     let remove = |halves: &mut Halves, k: usize, stats: &mut PlanStats| {
         halves[k].alive = false;
@@ -290,12 +302,9 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
             remove(halves, k, stats);
         }
     }
-    // Every half's box, measured once for all the pairs it is in (`halves` has the same
-    // capacity: the indices fit).
-    let mut boxes = [(Point::default(), Point::default()); MAX_HALVES];
-    for (k, b) in boxes.iter_mut().enumerate().take(halves.len()) {
-        *b = primitives::bbox(halves.points(k));
-    }
+    // Every half's box, measured once for all the pairs it is in.
+    let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
+    halves.boxes(&mut boxes)?;
     for a in 0..halves.len() {
         let box_a = boxes[a];
         for b in (a + 1)..halves.len() {
@@ -314,4 +323,5 @@ fn sanitize(slice: &Slice, halves: &mut Halves, stats: &mut PlanStats) {
             }
         }
     }
+    Ok(())
 }

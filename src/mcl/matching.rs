@@ -76,12 +76,7 @@ pub fn match_all(
     // Every half's box, kept as halves are joined: each join is checked against the finished
     // halves, and measuring every one of them again for each was most of the check's work.
     let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
-    for k in 0..halves.len() {
-        // Never full: one box per half, and `halves` has the same capacity.
-        boxes
-            .push(primitives::bbox(halves.points(k)))
-            .map_err(|_| Limit::Halves.error())?;
-    }
+    halves.boxes(&mut boxes)?;
     // Put every bisector end on its bisector piece.
     for x in 0..halves.len() {
         let e = halves.end_point(x);

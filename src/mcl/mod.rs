@@ -14,7 +14,7 @@ pub mod relax;
 use heapless::Vec;
 
 use crate::config::{HALF_POINTS, HALF_POOL_POINTS, MAX_HALVES};
-use crate::geometry::{polyline, Point};
+use crate::geometry::{polyline, primitives, Point};
 use crate::{Error, FeatureId, Limit};
 
 /// Where a half ends.
@@ -95,6 +95,19 @@ impl Halves {
     /// The polyline of `h`, one of these halves.
     pub fn points_of(&self, h: &Half) -> &[Point] {
         &self.pool[h.at as usize..h.at as usize + h.len as usize]
+    }
+
+    /// Every half's bounding box, by index, into `out` (emptied first; filled in place, not
+    /// returned: it is 16 bytes a half of capacity): for the searches that test one half
+    /// against many and keep the boxes instead of measuring each half again per test.
+    pub(crate) fn boxes(&self, out: &mut Vec<(Point, Point), MAX_HALVES>) -> Result<(), Error> {
+        out.clear();
+        for k in 0..self.len() {
+            // Never full: one box per half, and the halves have the same capacity.
+            out.push(primitives::bbox(self.points(k)))
+                .map_err(|_| Limit::Halves.error())?;
+        }
+        Ok(())
     }
 
     /// The start of half `k`, on its hole's keep-out curve.

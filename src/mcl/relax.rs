@@ -69,12 +69,7 @@ pub fn relax(
     // Every half's bounding box, kept up to date as ends move: each move is checked against
     // the halves around it, and measuring all of them again for each was most of the work.
     let mut boxes: Vec<(Point, Point), MAX_HALVES> = Vec::new();
-    for k in 0..halves.len() {
-        // Never full: one box per half, and `halves` has the same capacity.
-        boxes
-            .push(primitives::bbox(halves.points(k)))
-            .map_err(|_| Limit::Halves.error())?;
-    }
+    halves.boxes(&mut boxes)?;
     let mut chunks: Vec<(Point, Point), { MAX_HALVES.div_ceil(RUN) }> = Vec::new();
     for run in boxes.chunks(RUN) {
         // Never full: one box per run of the boxes.

@@ -92,12 +92,7 @@ pub struct BlendedField<'a> {
 
 /// The ends of MCL `m`: the segment [`BlendedField`] bounds its distance by.
 fn chord(plan: &Plan, m: &crate::Mcl) -> (Point, Point) {
-    let first = plan.halves.points(m.first as usize);
-    let end = match m.second {
-        Some(s) => plan.halves.points(s as usize)[0],
-        None => first[first.len() - 1],
-    };
-    (first[0], end)
+    plan.mcl_ends(m)
 }
 
 /// MCLs a run of [`BlendedField`]'s boxes holds.

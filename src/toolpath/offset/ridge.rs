@@ -68,6 +68,8 @@ pub(super) fn widened(
     // wider than the widest road still covers most of it.
     let reach = (slice.settings().max_width - 0.5 * w).fmax(2.0 * w) + RIDGE_MARGIN;
     let mut ridge = reach;
+    // The room for rounding a bound of the gap keeps ([`RIDGE_STEPS`]' steps below).
+    let sure = 2.0 * polygon::rounding_slack(p, slice.wall().bbox()) + 1e-5 * w;
     for f in 0..=holes {
         // The feature's own ridges count too (a non-convex feature's parts face each other):
         // along its own normal its distance grows exactly with `t` until one, to rounding.
@@ -94,7 +96,6 @@ pub(super) fn widened(
         // answer those bounds already give, with room for the rounding of both values the
         // bound rests on, is taken without measuring: the same steps as measuring each, so
         // the same ridge to the bit. (`below` is unknown at 0 until a step measures.)
-        let sure = 2.0 * polygon::rounding_slack(p, slice.wall().bbox()) + 1e-5 * w;
         let (mut lo, mut hi) = (0.0f32, ridge);
         let (mut below, mut above) = (f32::NEG_INFINITY, at_ridge);
         for _ in 0..RIDGE_STEPS {

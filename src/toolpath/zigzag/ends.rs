@@ -378,18 +378,13 @@ pub(super) fn open_pieces(ends: &Ends, parent: &mut [u16; ENDS]) -> [bool; ENDS]
     open
 }
 
-/// The point of end `id`: its MCL's first point or last (as [`Plan::points`] gives them),
-/// from the halves without copying the MCL.
+/// The point of end `id`: its MCL's first point or last ([`Plan::mcl_ends`]).
 pub(super) fn end_point(plan: &Plan, ends: &Ends, id: u16) -> Point {
-    let mcl = &plan.mcls[ends.mcls[(id / 2) as usize] as usize];
-    let first = plan.halves.points(mcl.first as usize);
+    let (first, last) = plan.mcl_ends(&plan.mcls[ends.mcls[(id / 2) as usize] as usize]);
     if id % 2 == 0 {
-        first[0]
+        first
     } else {
-        // The second half runs from the far hole to the joint: reversed, its start is last.
-        mcl.second.map_or(first[first.len() - 1], |s| {
-            plan.halves.points(s as usize)[0]
-        })
+        last
     }
 }
 
