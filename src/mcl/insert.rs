@@ -321,7 +321,18 @@ fn trace(
             Some(near) => {
                 let dq = near.distance;
                 if other_within(q, dq) {
-                    let e = bisect(p, q, |x| others(x).1 - own(x));
+                    // Which side of the bisector `x` lies on (`others(x).1 - own(x)`'s
+                    // sign), measuring only the holes whose box is near enough to decide.
+                    let side = |x: Point| {
+                        let nearer = other_within(x, own(x));
+                        debug_assert_eq!(!nearer, others(x).1 - own(x) > 0.0, "side at {x:?}");
+                        if nearer {
+                            -1.0
+                        } else {
+                            1.0
+                        }
+                    };
+                    let e = bisect(p, q, side);
                     let (j, _) = others(e);
                     out.push(e).ok()?;
                     return Some(HalfEnd::Bisector(j as u8));
