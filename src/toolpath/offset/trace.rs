@@ -12,6 +12,9 @@ use crate::geometry::Point;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
 
+/// No feature: the nearest feature of a point no chord is refined at.
+const NONE_FEATURE: usize = usize::MAX;
+
 impl OffsetSpiral {
     /// Samples `D` on a grid over the wall, half a road width apart or coarser.
     pub(super) fn sample(&mut self, slice: &Slice, mem: &mut GridMemory) -> Result<(), Error> {
@@ -146,12 +149,13 @@ impl OffsetSpiral {
     /// level's curvature (a road a good fraction of the slice wide, whose grid is coarse too)
     /// the chord between two grid crossings would cut into the turn's clearance, and at a
     /// corner of the level (where it meets another feature's at a ridge) it would cut the
-    /// corner off.
+    /// corner off. `a` and `b` come with the features nearest them (`nearest(slice, a).0`,
+    /// measured once a point, for both chords it ends).
     pub(super) fn refine(
         &mut self,
         slice: &Slice,
-        a: Point,
-        b: Point,
+        (a, fa): (Point, usize),
+        (b, fb): (Point, usize),
         level: f32,
         depth: u32,
     ) -> Result<(), Error> {
@@ -159,17 +163,25 @@ impl OffsetSpiral {
             return Ok(());
         }
         let mid = a.lerp(b, 0.5);
+        // The feature nearest a point put in, where the chords either side of it are refined
+        // further (the only use of it).
+        let feature_of = |p: Point| {
+            if depth > 1 {
+                nearest(slice, p).0
+            } else {
+                NONE_FEATURE
+            }
+        };
         // Across a ridge the level has a corner: put it in exactly (the chord across a
         // corner of the turn would cut it off, and neither end's steps reach it).
-        let (fa, fb) = (nearest(slice, a).0, nearest(slice, b).0);
         if fa != fb {
-            if let Some(c) = level_corner(slice, (fa, fb), mid, level, a.dist(b)) {
+            if let Some((c, fc)) = level_corner(slice, (fa, fb), mid, level, a.dist(b)) {
                 if c.dist(a) > 1e-4 && c.dist(b) > 1e-4 {
-                    self.refine(slice, a, c, level, depth - 1)?;
+                    self.refine(slice, (a, fa), (c, fc), level, depth - 1)?;
                     self.points
                         .push(c)
                         .map_err(|_| capacity(Limit::ContourPoints))?;
-                    return self.refine(slice, c, b, level, depth - 1);
+                    return self.refine(slice, (c, fc), (b, fb), level, depth - 1);
                 }
             }
         }
@@ -179,11 +191,12 @@ impl OffsetSpiral {
         if m.dist(mid) <= 0.5 * SIMPLIFY_TOL {
             return Ok(());
         }
-        self.refine(slice, a, m, level, depth - 1)?;
+        let fm = feature_of(m);
+        self.refine(slice, (a, fa), (m, fm), level, depth - 1)?;
         self.points
             .push(m)
             .map_err(|_| capacity(Limit::ContourPoints))?;
-        self.refine(slice, m, b, level, depth - 1)
+        self.refine(slice, (m, fm), (b, fb), level, depth - 1)
     }
 
     /// Traces one loop from cell `c0`, entry edge `e0`, simplifies it and records it.
@@ -202,14 +215,20 @@ impl OffsetSpiral {
         let start = self.points.len();
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let (mut c, mut e) = (c0, e0);
+        // The features nearest the first point and the last one traced.
+        let (mut first_f, mut last_f) = (NONE_FEATURE, NONE_FEATURE);
         for _ in 0..4 * self.grid.len() {
             mem.tags[c] |= 1 << e;
             let x = self.exit(&mem.values, c, e, level);
             let p = self.crossing(slice, &mem.values, c, x, level);
             if self.points.last() != Some(&p) {
+                let fp = nearest(slice, p).0;
                 if let Some(&prev) = self.points[start..].last() {
-                    self.refine(slice, prev, p, level, REFINE_DEPTH)?;
+                    self.refine(slice, (prev, last_f), (p, fp), level, REFINE_DEPTH)?;
+                } else {
+                    first_f = fp;
                 }
+                last_f = fp;
                 self.points
                     .push(p)
                     .map_err(|_| capacity(Limit::ContourPoints))?;
@@ -231,7 +250,7 @@ impl OffsetSpiral {
         }
         if let (Some(&first), Some(&last)) = (self.points.get(start), self.points.last()) {
             if self.points.len() > start + 1 {
-                self.refine(slice, last, first, level, REFINE_DEPTH)?;
+                self.refine(slice, (last, last_f), (first, first_f), level, REFINE_DEPTH)?;
             }
         }
         let len = simplify_closed(&mut self.points, start, SIMPLIFY_TOL);
@@ -284,14 +303,15 @@ impl OffsetSpiral {
 
 /// Where the level `level` of features `fa` and `fb` meet (the corner of the turn at the
 /// ridge between them), by Newton steps on both distances from `p0`, if the steps converge
-/// within `reach` of `p0` onto a point no other feature is nearer to.
+/// within `reach` of `p0` onto a point no other feature is nearer to; with it, the feature
+/// nearest it.
 fn level_corner(
     slice: &Slice,
     (fa, fb): (usize, usize),
     p0: Point,
     level: f32,
     reach: f32,
-) -> Option<Point> {
+) -> Option<(Point, usize)> {
     let mut p = p0;
     for _ in 0..8 {
         let (da, ga) = slice.clearance_gradient_to(fa, p);
@@ -311,7 +331,7 @@ fn level_corner(
         }
     }
     let (f, d, _) = nearest(slice, p);
-    ((f == fa || f == fb) && (d - level).abs() < 1e-5).then_some(p)
+    ((f == fa || f == fb) && (d - level).abs() < 1e-5).then_some((p, f))
 }
 
 /// Simplifies the closed polyline `pts[start..]` in place, keeping every point whose removal
