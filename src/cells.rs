@@ -13,7 +13,7 @@ use crate::config::{
     BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS,
 };
 use crate::field::{Field, KEEP_OUT};
-use crate::geometry::primitives::{fmin, MinMax};
+use crate::geometry::primitives::{bisect, fmin, MinMax};
 use crate::geometry::{polyline, Point};
 use crate::{Error, Limit, Slice};
 
@@ -84,42 +84,6 @@ pub(crate) fn onto_bisector(slice: &Slice, a: usize, b: usize, mut p: Point) -> 
         p = p - gr * ((da - db) / g2);
     }
     p
-}
-
-/// Finds where `f` changes sign between `p` (`f(p) > 0`) and `q` (`f(q) <= 0`).
-///
-/// Once the interval is narrower than the coordinates can tell apart, a midpoint rounds to a
-/// point already measured (the last one found on either side): its side is known and `f` is
-/// not called again (it would answer the same for the same bits). The answer is the plain
-/// 24 halvings'.
-pub(crate) fn bisect(p: Point, q: Point, mut f: impl FnMut(Point) -> f32) -> Point {
-    let (mut lo, mut hi) = (0.0f32, 1.0f32);
-    // The last points measured on the positive side and on the other.
-    let (mut above, mut below): (Option<Point>, Option<Point>) = (None, None);
-    let same = |a: Option<Point>, x: Point| {
-        a.is_some_and(|a| a.x.to_bits() == x.x.to_bits() && a.y.to_bits() == x.y.to_bits())
-    };
-    for _ in 0..24 {
-        let mid = 0.5 * (lo + hi);
-        let x = p.lerp(q, mid);
-        let known = if same(above, x) {
-            Some(true)
-        } else if same(below, x) {
-            Some(false)
-        } else {
-            None
-        };
-        let positive = known.unwrap_or_else(|| f(x) > 0.0);
-        debug_assert!(known.is_none_or(|k| k == (f(x) > 0.0)), "bisect at {x:?}");
-        if positive {
-            lo = mid;
-            above = Some(x);
-        } else {
-            hi = mid;
-            below = Some(x);
-        }
-    }
-    p.lerp(q, 0.5 * (lo + hi))
 }
 
 impl Cells {

@@ -141,3 +141,93 @@ pub fn union(a: (Point, Point), b: (Point, Point)) -> (Point, Point) {
 pub fn union_all(boxes: &[(Point, Point)]) -> (Point, Point) {
     boxes.iter().fold(bbox(&[]), |acc, &b| union(acc, b))
 }
+
+/// Finds where `f` changes sign between `p` (`f(p) > 0`) and `q` (`f(q) <= 0`), by 24
+/// halvings of the segment (a 0.1 mm grid edge to 6 nm, finer than an `f32` coordinate of a
+/// few mm tells apart): a bisector's or a cell boundary's crossing, a level of the distance.
+///
+/// Once the interval is narrower than the coordinates can tell apart, a midpoint rounds to a
+/// point already measured (the last one found on either side): its side is known and `f` is
+/// not called again (it would answer the same for the same bits). The answer is the plain
+/// 24 halvings'.
+pub(crate) fn bisect(p: Point, q: Point, mut f: impl FnMut(Point) -> f32) -> Point {
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    // The last points measured on the positive side and on the other.
+    let (mut above, mut below): (Option<Point>, Option<Point>) = (None, None);
+    let same = |a: Option<Point>, x: Point| {
+        a.is_some_and(|a| a.x.to_bits() == x.x.to_bits() && a.y.to_bits() == x.y.to_bits())
+    };
+    for _ in 0..24 {
+        let mid = 0.5 * (lo + hi);
+        let x = p.lerp(q, mid);
+        let known = if same(above, x) {
+            Some(true)
+        } else if same(below, x) {
+            Some(false)
+        } else {
+            None
+        };
+        let positive = known.unwrap_or_else(|| f(x) > 0.0);
+        if positive {
+            lo = mid;
+            above = Some(x);
+        } else {
+            hi = mid;
+            below = Some(x);
+        }
+    }
+    p.lerp(q, 0.5 * (lo + hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plain 24 halvings, measuring every midpoint.
+    fn plain(p: Point, q: Point, f: impl Fn(Point) -> f32) -> Point {
+        let (mut lo, mut hi) = (0.0f32, 1.0f32);
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            if f(p.lerp(q, mid)) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        p.lerp(q, 0.5 * (lo + hi))
+    }
+
+    #[test]
+    fn bisection_answers_as_the_plain_halvings_and_measures_fewer_points_on_a_short_edge() {
+        // Short edges far from the origin (a few ulps to a grid step long) and long ones; a
+        // circle's distance crossing a level somewhere along each.
+        let mut fewer = 0;
+        for k in 0..400u32 {
+            let x = 50.0 + k as f32 * 0.37;
+            let len = [1e-5, 1e-3, 0.1, 2.0][k as usize % 4];
+            let (p, q) = (Point::new(x, 1.0), Point::new(x + len, 1.0 + 0.5 * len));
+            let level = p.norm() + (k % 7) as f32 / 7.0 * (q.norm() - p.norm());
+            let f = |x: Point| level - x.norm();
+            let calls = core::cell::Cell::new(0);
+            let counted = |x: Point| {
+                calls.set(calls.get() + 1);
+                f(x)
+            };
+            let got = bisect(p, q, counted);
+            let want = plain(p, q, f);
+            assert_eq!(
+                (got.x.to_bits(), got.y.to_bits()),
+                (want.x.to_bits(), want.y.to_bits())
+            );
+            assert!(calls.get() <= 24);
+            if calls.get() < 24 {
+                fewer += 1;
+            }
+        }
+        // Every edge up to 1e-3 mm long at x >= 50 is resolved before the 24th halving.
+        assert!(
+            fewer >= 200,
+            "{fewer} of 400 bisections measured fewer points"
+        );
+    }
+}

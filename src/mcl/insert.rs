@@ -10,9 +10,9 @@
 
 use heapless::Vec;
 
-use crate::cells::bisect;
 use crate::config::{HALF_POINTS, MAX_HALVES, MAX_REFINE_DEPTH, TRACE_POINTS};
 use crate::field::Field;
+use crate::geometry::primitives::bisect;
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, Point};
 use crate::keep_out::{KeepOut, Side};

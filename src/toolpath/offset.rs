@@ -49,9 +49,6 @@ use crate::{Error, Limit, Material, Plan, Settings, Slice};
 /// How far beyond the keep-out curve the first turn lies, mm: the chords of a turn may cut
 /// that far into it without touching a feature's keep-out band.
 const FIRST_TURN_MARGIN: f32 = 3e-3;
-/// Bisection steps locating a level on a grid edge where Newton steps run off (an edge of
-/// 0.1 mm to 6 nm).
-const EDGE_BISECTIONS: u32 = 24;
 /// How many times a chord between two traced points of a turn is halved, at most, to keep
 /// it within [`SIMPLIFY_TOL`] of the turn (a chord 16 times shorter sags 256 times less).
 const REFINE_DEPTH: u32 = 4;

@@ -3,10 +3,11 @@
 //! grid is coarse for the curve, then simplified into a loop.
 
 use super::{
-    capacity, distance, nearest, Loop, OffsetSpiral, OffsetStats, EDGE_BISECTIONS,
-    FIRST_TURN_MARGIN, MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, RUN, SIMPLIFY_TOL,
+    capacity, distance, nearest, Loop, OffsetSpiral, OffsetStats, FIRST_TURN_MARGIN,
+    MIN_LOOP_ROADS, NONE, OPTIONAL_LOOP_ROADS, REFINE_DEPTH, RUN, SIMPLIFY_TOL,
 };
 use crate::field::GridMemory;
+use crate::geometry::primitives::bisect;
 use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::{Error, Limit, Slice};
@@ -116,16 +117,14 @@ impl OffsetSpiral {
         // it).
         self.on_level(slice, p0, level).unwrap_or_else(|| {
             let below = distance(slice, na).0 < level;
-            let (mut lo, mut hi) = (0.0f32, 1.0f32);
-            for _ in 0..EDGE_BISECTIONS {
-                let mid = 0.5 * (lo + hi);
-                if (distance(slice, na.lerp(nb, mid)).0 < level) == below {
-                    lo = mid;
+            // Positive on `na`'s side of the level.
+            bisect(na, nb, |x| {
+                if (distance(slice, x).0 < level) == below {
+                    1.0
                 } else {
-                    hi = mid;
+                    -1.0
                 }
-            }
-            na.lerp(nb, 0.5 * (lo + hi))
+            })
         })
     }
 
