@@ -13,7 +13,7 @@ use crate::config::{
     BISECTOR_POINTS, BISECTOR_SEEDS, MAX_BISECTORS, MAX_BRANCH_POINTS, TRACE_POINTS,
 };
 use crate::field::{Field, KEEP_OUT};
-use crate::geometry::primitives::{bisect, fmin, MinMax};
+use crate::geometry::primitives::{bisect, MinMax};
 use crate::geometry::{polyline, Point};
 use crate::{Error, Limit, Slice};
 
@@ -255,17 +255,15 @@ fn march(
             push_point(out, e)?;
             return Ok(true);
         }
-        // Entering a third cell: a branch point of three cells.
+        // Entering a third cell: a branch point of three cells, where a third hole is as near
+        // as the farther of `a` and `b` (measuring only the holes whose box is that near).
         let third = |x: Point| {
             let d = |c: usize| slice.holes()[c].signed_distance(x);
-            let nearest_third = (0..slice.holes().len())
-                .filter(|&c| c != a && c != b)
-                .map(d)
-                .fold(f32::INFINITY, fmin);
-            nearest_third - d(a).fmax(d(b))
+            slice.hole_within(x, d(a).fmax(d(b)), |c| c == a || c == b)
         };
-        if third(q) <= 0.0 {
-            let e = bisect(p, q, third);
+        if third(q) {
+            // Positive on `p`'s side, in no third cell.
+            let e = bisect(p, q, |x| if third(x) { -1.0 } else { 1.0 });
             push_point(out, e)?;
             return Ok(true);
         }

@@ -264,12 +264,7 @@ fn trace(
     };
     // Whether another hole is as near `x` as `d` (`others(x).1 <= d`), measuring only the
     // holes whose box is within `d`.
-    let other_within =
-        |x: Point, d: f32| {
-            slice.holes().iter().enumerate().any(|(c, f)| {
-                c != i && (d < 0.0 || box_within(f, x, d)) && f.signed_distance(x) <= d
-            })
-        };
+    let other_within = |x: Point, d: f32| slice.hole_within(x, d, |c| c == i);
     // Whether another hole's box lies within `d` of `x`: where none does, no other hole is
     // as near `x` as `d` (`other_within` would measure none).
     let other_box_within = |x: Point, d: f32| {

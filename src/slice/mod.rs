@@ -343,6 +343,22 @@ impl Slice {
         best
     }
 
+    /// Whether a hole other than those `skip` names lies within `d` of `p` (its signed distance
+    /// at most `d`), measuring only the holes whose box lies within `d` (plus
+    /// [`polygon::rounding_slack`]: a hole's distance is at least its box's, so one skipped
+    /// is farther). With `d` negative, `p` would lie inside such a hole: every hole is
+    /// measured.
+    pub fn hole_within(&self, p: Point, d: f32, skip: impl Fn(usize) -> bool) -> bool {
+        self.holes.iter().enumerate().any(|(c, h)| {
+            if skip(c) {
+                return false;
+            }
+            let reach = d + polygon::rounding_slack(p, h.bbox);
+            (d < 0.0 || polygon::bbox_distance2(h.bbox, p) <= reach * reach)
+                && h.signed_distance(p) <= d
+        })
+    }
+
     /// Whether `p` is in the printable region: inside the wall and outside every hole, half a
     /// road width from each (with a tolerance `tol`).
     pub fn is_printable(&self, p: Point, tol: f32) -> bool {
