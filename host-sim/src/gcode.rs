@@ -177,6 +177,11 @@ pub fn export_part(
     s
 }
 
+/// The widest road a move read back may lay, mm: no nozzle lays a wider one, and the
+/// simulation's deposit of a road grows with its width squared (a stray `E1000` over a short
+/// move would ask for a road metres wide).
+pub const MAX_PARSED_WIDTH_MM: f64 = 10.0;
+
 /// One layer read back: the pattern named by its `; layer` comment, if any, and its path.
 pub type ParsedLayer = (Option<String>, Vec<Vertex>);
 
@@ -310,6 +315,11 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                 } else {
                     road_width
                 };
+                if width > MAX_PARSED_WIDTH_MM {
+                    return Err(format!(
+                        "line {line_no}: the move extrudes {extruded} mm of {filament} mm                          filament over {len:.3} mm, a road {width:.3e} mm wide at a layer                          height of {layer_height} mm; at most {MAX_PARSED_WIDTH_MM} mm is read                          (is `E` absolute, under M82, where the file means relative?)"
+                    ));
+                }
                 layer.push(Vertex {
                     at: Point::new(x as f32, y as f32),
                     material,

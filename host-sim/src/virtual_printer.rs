@@ -336,8 +336,9 @@ pub const MAX_LAYER_STEPS: f64 = 32e6;
 pub const MAX_LAYER_SECONDS: f64 = 24.0 * 3600.0;
 
 /// Refuses a layer the virtual printer would take too long or too much memory to run: its
-/// X and Y steps, and a lower bound of its print time (each move at most at its speed, and
-/// from rest to rest at most at the lesser of the X and Y accelerations).
+/// X and Y steps, and a lower bound of its print time (each move at most at its speed and at
+/// the speed its axes' `max_speed` allow, and from rest to rest at most at the lesser of the X
+/// and Y accelerations).
 fn check_size(cfg: &PrinterConfig, moves: &[Move]) -> Result<(), SimError> {
     let (sx, sy) = (
         f64::from(cfg.axes[0].steps_per_mm),
@@ -352,11 +353,18 @@ fn check_size(cfg: &PrinterConfig, moves: &[Move]) -> Result<(), SimError> {
         );
         steps += dx.abs() * sx + dy.abs() * sy;
         let len = dx.hypot(dy);
-        let speed = f64::from(if m.deposit {
+        // No faster than the move's feed, nor than lets each axis keep to its `max_speed`
+        // along its share of the move.
+        let mut speed = f64::from(if m.deposit {
             cfg.print_speed
         } else {
             cfg.travel_speed
         });
+        for (d, axis) in [(dx, &cfg.axes[0]), (dy, &cfg.axes[1])] {
+            if len > 0.0 && d != 0.0 {
+                speed = speed.min(f64::from(axis.max_speed) * len / d.abs());
+            }
+        }
         // Rest to rest at `accel`: no faster than half the way accelerating, half braking.
         seconds += (len / speed).max(2.0 * (len / accel).sqrt());
     }
@@ -388,7 +396,7 @@ impl std::fmt::Display for SimError {
                 f,
                 "the layer takes at least {:.1} h to print at the printer's speeds and \
                  accelerations, more than the virtual printer runs ({:.0} h): raise print_speed, \
-                 travel_speed or max_accel, or simulate a smaller slice",
+                 travel_speed, the axes' max_speed or max_accel, or simulate a smaller slice",
                 seconds / 3600.0,
                 MAX_LAYER_SECONDS / 3600.0
             ),

@@ -262,6 +262,16 @@ fn malformed_gcode_is_refused_with_its_line() {
     assert!(err.contains("line 2") && err.contains("X goes to"), "{err}");
     let err = parse("G91\nG0 X600\nG0 X600\n").unwrap_err();
     assert!(err.contains("line 3"), "{err}");
+    // A road wider than any nozzle lays (a 14 mm move extruding a metre of filament): the
+    // simulation would deposit a disc metres across for it, and ran out of memory.
+    for e in ["1000", "1e6", "1e30"] {
+        let err = parse(&format!("G1 X10 Y10 E{e} F600\n")).unwrap_err();
+        assert!(err.contains("line 1") && err.contains("wide"), "{err}");
+    }
+    // The widest a file may lay is read (just under 10 mm over a 10 mm move at 0.3 mm layers
+    // of 1.75 mm filament), just over it is not.
+    assert!(parse("G1 X10 E12.3\n").is_ok());
+    assert!(parse("G1 X10 E12.5\n").is_err());
 }
 
 #[test]

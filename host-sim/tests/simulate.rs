@@ -417,6 +417,26 @@ fn a_layer_too_long_or_too_large_to_simulate_is_refused_before_it_runs() {
         "{stderr}"
     );
     assert!(!out.join("o").join("simulation.json").exists());
+    // An axis crawling at a nanometre a second, whatever the print speed (it ran for ever).
+    std::fs::write(
+        out.join("crawl.json"),
+        r#"{"axes": {"x": {"max_speed": 1e-9}}}"#,
+    )
+    .unwrap();
+    let o = hollowpath()
+        .args(["simulate", SLICE, "--layers", "1", "--printer"])
+        .arg(out.join("crawl.json"))
+        .arg("--out")
+        .arg(out.join("c"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("to print at the printer's speeds") && stderr.contains("max_speed"),
+        "{stderr}"
+    );
+    assert!(!out.join("c").join("simulation.json").exists());
     let circle: Vec<String> = (0..24)
         .map(|k| {
             let a = k as f64 * std::f64::consts::TAU / 24.0;
@@ -636,4 +656,35 @@ fn simulate_runs_gcode_files_through_the_same_motion_code() {
         "{err}"
     );
     assert!(!out.join("sim-empty").join("simulation.json").exists());
+}
+
+/// A slice the controller would refuse as it receives it (a hole 0.1 um thick, which rounds
+/// to whole micrometres as a line) is refused before any layer runs and before the output
+/// folder is made; it used to be simulated first and the run then fail with an empty folder.
+#[test]
+fn a_slice_the_controller_would_refuse_is_refused_before_simulating() {
+    let dir = tmp("refused-early");
+    let slice = dir.join("thin.json");
+    std::fs::write(
+        &slice,
+        r#"{"outer": {"points": [[-10, -10], [10, -10], [10, 10], [-10, 10]], "material": [1, 0, 0, 0]},
+            "holes": [{"points": [[-5, 0], [5, 0], [5, 0.0001], [-5, 0.0001]], "material": [0, 1, 0, 0]}],
+            "settings": {"road_width": 0.4}}"#,
+    )
+    .unwrap();
+    let out = dir.join("o");
+    let o = hollowpath()
+        .arg("simulate")
+        .arg(&slice)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("as the controller receives it") && err.contains("hole 0"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }

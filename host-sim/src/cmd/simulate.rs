@@ -64,6 +64,26 @@ pub(crate) fn run_simulation(
     let plan = planner.last_plan();
     hollowpath::verify::verify(slice, plan)
         .map_err(|v| format!("the plan failed its own check ({v:?}); please report this slice"))?;
+    // The slice as the controller receives it, and its plan, made before any layer runs: a
+    // slice the controller would refuse is refused before the simulation's work (its layers
+    // ran and its folder was made first). A G-code file is not a job the controller plans.
+    let controller = match source {
+        Source::Plan => {
+            let layers16 =
+                u16::try_from(count.unwrap_or(2)).map_err(|_| "too many layers".to_string())?;
+            // (The controller would refuse what fails here: say so in those terms.)
+            const RECEIVED: &str = "the slice as the controller receives it, every coordinate \
+                 rounded to a whole micrometre";
+            let uploaded = host_sim::link_client::as_uploaded(slice, layers16).map_err(|e| {
+                format!("{RECEIVED}: {e}; the controller would refuse it: move vertices that lie within a micrometre or two of another edge apart")
+            })?;
+            let up_planner = host_sim::plan(&uploaded).map_err(|e| {
+                format!("{RECEIVED}: {e}; the controller could not plan it (to simulate the unrounded layers alone, export them with `plan --gcode` and simulate that file with `--gcode`)")
+            })?;
+            Some((uploaded, up_planner))
+        }
+        Source::Gcode(_) => None,
+    };
     // Each layer to run: its index, pattern, the moves from home, and what they state.
     type Job = (usize, Pattern, Vec<Move>, Option<layers::Layer>);
     let mut jobs: Vec<Job> = Vec::new();
@@ -159,19 +179,9 @@ pub(crate) fn run_simulation(
     // micrometres), its whole job on one virtual printer through the core's job routine, as
     // the controller prints it. A G-code file is not a job the controller plans: none.
     let mut digest = None;
-    if let Some(count) = job_layers {
-        let layers16 = u16::try_from(count).map_err(|_| "too many layers".to_string())?;
-        // (The controller would refuse what fails here: say so in those terms.)
-        const RECEIVED: &str = "the slice as the controller receives it, every coordinate rounded \
-             to a whole micrometre (the layers above are the unrounded slice's)";
-        let uploaded = host_sim::link_client::as_uploaded(slice, layers16).map_err(|e| {
-            format!("{RECEIVED}: {e}; the controller would refuse it: move vertices that lie within a micrometre or two of another edge apart")
-        })?;
-        let up_planner = host_sim::plan(&uploaded).map_err(|e| {
-            format!("{RECEIVED}: {e}; the controller could not plan it (to simulate the unrounded layers alone, export them with `plan --gcode` and simulate that file with `--gcode`)")
-        })?;
+    if let (Some(count), Some((uploaded, up_planner))) = (job_layers, controller.as_ref()) {
         let up_plan = up_planner.last_plan();
-        let counted = host_sim::virtual_printer::run_job_counted(cfg, &uploaded, up_plan, count)
+        let counted = host_sim::virtual_printer::run_job_counted(cfg, uploaded, up_plan, count)
             .map_err(|e| {
                 format!("the controller's job over {count} layer(s), on the virtual printer: {e}")
             })?;
