@@ -62,6 +62,7 @@ pub fn open_tcp(addr: &str) -> Result<Box<dyn Stream>, String> {
 /// settings (some pseudo-terminals) is opened without them, and that is said on stderr:
 /// a pty moves bytes at any rate.
 pub fn open_serial(port: &str) -> Result<Box<dyn Stream>, String> {
+    check_port(port)?;
     match serialport::new(port, 115_200)
         .timeout(Duration::from_millis(1))
         .open()
@@ -75,6 +76,25 @@ pub fn open_serial(port: &str) -> Result<Box<dyn Stream>, String> {
             raw_port(port).map_err(|raw| format!("{port}: {e}; {raw}"))
         }
     }
+}
+
+/// Refuses a port that is not a character device: an ordinary file (a slice named by
+/// mistake) would have the link's frames appended to it.
+#[cfg(unix)]
+fn check_port(port: &str) -> Result<(), String> {
+    use std::os::unix::fs::FileTypeExt;
+    match std::fs::metadata(port) {
+        Ok(meta) if !meta.file_type().is_char_device() => Err(format!(
+            "{port}: not a serial port (a character device such as /dev/ttyACM0); nothing \
+             was written to it"
+        )),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(not(unix))]
+fn check_port(_port: &str) -> Result<(), String> {
+    Ok(())
 }
 
 /// A character device used as it is (no line settings), non-blocking.

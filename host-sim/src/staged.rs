@@ -58,12 +58,50 @@ impl Staged {
         self.owned.push((dir.to_path_buf(), family));
     }
 
-    /// Refuses `path` if it names the input file.
+    /// Refuses `path` if it names the input file, if something other than an ordinary file
+    /// is there (a device, a pipe, a folder or a link, which the rename into place would
+    /// replace instead of writing through), or if its folder does not exist.
     pub fn check(&self, path: &Path) -> Result<(), String> {
+        self.check_making(path, None)
+    }
+
+    /// [`check`](Self::check), where the folder `making` (the run's output folder, made
+    /// later) counts as existing.
+    pub fn check_making(&self, path: &Path, making: Option<&Path>) -> Result<(), String> {
         if self.input.is_some() && resolved(path) == self.input {
             return Err(format!(
                 "refusing to write {}: it is the input file",
                 path.display()
+            ));
+        }
+        if let Ok(meta) = std::fs::symlink_metadata(path) {
+            let kind = meta.file_type();
+            if !kind.is_file() {
+                let what = if kind.is_dir() {
+                    "a folder"
+                } else if kind.is_symlink() {
+                    "a link"
+                } else {
+                    "a device or a pipe"
+                };
+                return Err(format!(
+                    "refusing to write {}: it is {what}, not an ordinary file (name a new file \
+                     or an ordinary one to replace)",
+                    path.display()
+                ));
+            }
+        }
+        let folder = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let made_later =
+            making.is_some_and(|m| std::path::absolute(m).ok() == std::path::absolute(folder).ok());
+        if !folder.is_dir() && !made_later {
+            return Err(format!(
+                "cannot write {}: the folder {} does not exist",
+                path.display(),
+                folder.display()
             ));
         }
         Ok(())
@@ -72,6 +110,15 @@ impl Staged {
     /// Writes `bytes` to a temporary name beside `path`.
     pub fn write(&mut self, path: &Path, bytes: &[u8]) -> Result<(), String> {
         self.check(path)?;
+        // Two files of this run under one name (`--gcode` naming one of the run's own files):
+        // the second would overwrite the first's temporary and the commit fail half-way.
+        let here = resolved(path);
+        if here.is_some() && self.files.iter().any(|(_, p)| resolved(p) == here) {
+            return Err(format!(
+                "refusing to write {} twice: --gcode names one of the run's own output files",
+                path.display()
+            ));
+        }
         let name = path
             .file_name()
             .ok_or_else(|| format!("cannot write {}: not a file name", path.display()))?;

@@ -330,3 +330,82 @@ fn output_naming_the_input_is_refused() {
     assert!(err.contains("is a file: give a folder"), "{err}");
     assert_eq!(std::fs::read(&input).unwrap(), text);
 }
+
+/// `slice --jobs` is bounded: a thread for each of 30 000 jobs took minutes and memory for a
+/// ten-layer model (one per core is the default).
+#[test]
+fn slice_refuses_more_planning_threads_than_it_allows() {
+    let o = hollowpath()
+        .args(["slice", "model.stl", "--jobs", "30000"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--jobs") && err.contains("0..=256"), "{err}");
+}
+
+/// An output that is not an ordinary file is refused before anything is written: the rename
+/// into place replaced a link (its target untouched), a device (`/dev/null` made a 2 MB
+/// file) or failed on a folder after the other results were in place; `--gcode` naming one
+/// of the run's own files left that file holding G-code; `print --port` naming a slice
+/// appended the link's frames to it.
+#[cfg(unix)]
+#[test]
+fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
+    let dir = tmp("not-ordinary");
+    std::fs::create_dir_all(&dir).unwrap();
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    let target = dir.join("kept.gcode");
+    std::fs::write(&target, "keep").unwrap();
+    let link = dir.join("link.gcode");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let folder = dir.join("a-folder");
+    std::fs::create_dir_all(&folder).unwrap();
+    for (gcode, says) in [(&link, "it is a link"), (&folder, "it is a folder")] {
+        let out = dir.join("o");
+        let st = hollowpath()
+            .args(["plan", slice, "--out"])
+            .arg(&out)
+            .arg("--gcode")
+            .arg(gcode)
+            .output()
+            .unwrap();
+        assert!(!st.status.success());
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert!(err.contains(says), "{err}");
+        assert!(!out.exists(), "{says}: the output folder was made");
+    }
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    // One of the run's own files.
+    let out = dir.join("same");
+    let st = hollowpath()
+        .args(["plan", slice, "--out"])
+        .arg(&out)
+        .arg("--gcode")
+        .arg(out.join("metrics.json"))
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(err.contains("twice"), "{err}");
+    assert!(!out.join("metrics.json").exists() && !out.join("mcls.json").exists());
+    // A port that is an ordinary file.
+    let victim = dir.join("victim.json");
+    std::fs::copy(slice, &victim).unwrap();
+    let before = std::fs::read(&victim).unwrap();
+    let st = hollowpath()
+        .arg("print")
+        .arg(&victim)
+        .arg("--port")
+        .arg(&victim)
+        .output()
+        .unwrap();
+    assert!(!st.status.success());
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(err.contains("not a serial port"), "{err}");
+    assert_eq!(std::fs::read(&victim).unwrap(), before);
+}

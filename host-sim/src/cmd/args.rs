@@ -182,8 +182,10 @@ pub(crate) enum Command {
         /// The G-code file (default DIR/part.gcode).
         #[arg(long)]
         gcode: Option<PathBuf>,
-        /// Planning threads (0: one per core); the output is the same for any number.
-        #[arg(long, default_value_t = 0)]
+        /// Planning threads (0: one per core; at most 256); the output is the same for any
+        /// number.
+        #[arg(long, default_value_t = 0,
+              value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=256))]
         jobs: usize,
         /// Skip the per-layer PNG previews.
         #[arg(long)]

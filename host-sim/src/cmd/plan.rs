@@ -21,7 +21,7 @@ pub(crate) fn run(
 ) -> Result<(), String> {
     let mut staged = Staged::new(input);
     if let Some(g) = gcode_path {
-        staged.check(g)?;
+        staged.check_making(g, Some(out))?;
     }
     // An earlier run's layers beyond this run's count would sit beside its metrics.
     staged.own(out, |name| {
