@@ -81,7 +81,7 @@ impl SettingId {
     pub const fn allowed(self) -> &'static str {
         match self {
             SettingId::RoadWidth => "0.01 to 10 mm",
-            SettingId::LayerHeight => "more than 0, at most 10 mm",
+            SettingId::LayerHeight => "0.01 to 10 mm",
             SettingId::WeightNormal | SettingId::WeightDistance => "0 to 16",
             SettingId::Delta => "a finite number of mm, more than 0",
             SettingId::MclSpacing => "0.25 to 4 road widths",
@@ -377,7 +377,8 @@ impl fmt::Display for Error {
         match *self {
             Error::TooFewPoints { feature, distinct } => write!(
                 f,
-                "{feature}: only {distinct} distinct points, a polygon needs at least 3"
+                "{feature}: only {distinct} distinct point{}, a polygon needs at least 3",
+                if distinct == 1 { "" } else { "s" }
             ),
             Error::NonFinite { feature, vertex } => {
                 write!(f, "{feature}: vertex {vertex} has a coordinate that is not a finite number")

@@ -141,6 +141,11 @@ fn invalid_slices_name_the_feature_and_reason() {
             slice(SQUARE, &[SMALL], r#""layer_height": 0"#),
             "setting layer_height",
         ),
+        // A layer the G-code's `Z` cannot tell from the next (every layer at `Z0.0000`).
+        (
+            slice(SQUARE, &[SMALL], r#""layer_height": 1e-9"#),
+            "setting layer_height: 0.000000001 is out of range",
+        ),
         (
             slice(SQUARE, &[SMALL], "").replace("[0, 1, 0, 0]", "[0, 1.5, -0.5, 0]"),
             "hole 0: material fraction of channel 2 is negative",

@@ -7,9 +7,14 @@ use super::Point;
 /// Twice the signed area: positive for counter-clockwise.
 pub fn double_area(pts: &[Point]) -> f32 {
     let n = pts.len();
+    let Some(&o) = pts.first() else {
+        return 0.0;
+    };
+    // Relative to the first vertex: the products of coordinates far from the origin (a
+    // small square at (900, 900) mm) would round away the area itself.
     let mut a = 0.0;
-    for i in 0..n {
-        a += pts[i].cross(pts[(i + 1) % n]);
+    for i in 1..n.saturating_sub(1) {
+        a += (pts[i] - o).cross(pts[i + 1] - o);
     }
     a
 }
@@ -185,4 +190,30 @@ pub fn bbox_distance2(b: (Point, Point), p: Point) -> f32 {
 pub fn rounding_slack(p: Point, (lo, hi): (Point, Point)) -> f32 {
     let size = |q: Point| fmax(q.x.abs(), q.y.abs());
     1e-5 * (1.0 + size(p) + fmax(size(lo), size(hi)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_area_of_a_small_square_far_from_the_origin_is_its_own() {
+        // 0.2 mm square at (900, 900) mm: the products of absolute coordinates (8.1e5, an
+        // ulp of 0.06) rounded its area (0.04 mm^2) to nothing, and the slice was refused as
+        // enclosing none.
+        for (x, y) in [(0.0f32, 0.0f32), (900.0, 900.0), (-950.0, 400.0)] {
+            let sq = [
+                Point::new(x, y),
+                Point::new(x + 0.2, y),
+                Point::new(x + 0.2, y + 0.2),
+                Point::new(x, y + 0.2),
+            ];
+            let a = 0.5 * double_area(&sq);
+            assert!((a - 0.04).abs() < 4e-4, "at ({x}, {y}): {a}");
+            let mut cw = sq;
+            cw.reverse();
+            assert!((0.5 * double_area(&cw) + 0.04).abs() < 4e-4);
+        }
+        assert_eq!(double_area(&[]), 0.0);
+    }
 }

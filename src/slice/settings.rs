@@ -80,7 +80,9 @@ impl Settings {
             (
                 SettingId::LayerHeight,
                 self.layer_height,
-                self.layer_height > 0.0 && self.layer_height <= config::MAX_ROAD_WIDTH_MM,
+                // At least what the G-code's `Z` (four decimals) tells from the next layer.
+                self.layer_height >= config::MIN_ROAD_WIDTH_MM
+                    && self.layer_height <= config::MAX_ROAD_WIDTH_MM,
             ),
             (
                 SettingId::WeightNormal,

@@ -121,7 +121,8 @@ impl fmt::Display for ModelError {
             ),
             ModelError::LayerHeight(h) => write!(
                 f,
-                "layer height {h} mm is out of range (more than 0, at most {} mm)",
+                "layer height {h} mm is out of range ({} to {} mm)",
+                hollowpath::config::MIN_ROAD_WIDTH_MM,
                 hollowpath::config::MAX_ROAD_WIDTH_MM
             ),
             ModelError::RoadWidth(w) => write!(

@@ -74,7 +74,10 @@ pub fn slice_mesh(
     map: &MaterialMap,
     on_layer: &(dyn Fn() + Sync),
 ) -> Result<SlicedModel, ModelError> {
-    if !(layer_height > 0.0 && layer_height <= hollowpath::config::MAX_ROAD_WIDTH_MM as f64) {
+    // The core's range of a slice's layer height (the G-code's `Z` tells 0.01 mm apart).
+    let range =
+        hollowpath::config::MIN_ROAD_WIDTH_MM as f64..=hollowpath::config::MAX_ROAD_WIDTH_MM as f64;
+    if !range.contains(&layer_height) {
         return Err(ModelError::LayerHeight(layer_height));
     }
     let (lo, hi) = mesh.bounds();
