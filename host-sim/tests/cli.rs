@@ -409,3 +409,52 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     assert!(err.contains("not a serial port"), "{err}");
     assert_eq!(std::fs::read(&victim).unwrap(), before);
 }
+
+/// A layer that leaves much of the slice bare says so: a zigzag on a C-shaped wall whose one
+/// channel sits in the back of the C covered 0.39 of it with exit 0 and nothing said (no
+/// material changing line enters the arms). The reference slices' layers warn of nothing.
+#[test]
+fn a_layer_that_leaves_much_of_the_slice_bare_is_warned_of() {
+    let dir = tmp("bare-warning");
+    std::fs::create_dir_all(&dir).unwrap();
+    let ring: Vec<String> = (0..16)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 16.0;
+            format!("[{:.5}, {:.5}]", -8.0 + a.cos(), a.sin())
+        })
+        .collect();
+    let slice = dir.join("c-wall.json");
+    std::fs::write(
+        &slice,
+        format!(
+            r#"{{"outer": {{"points": [[-10,-10],[10,-10],[10,-6],[-6,-6],[-6,6],[10,6],[10,10],[-10,10]], "material": [1,0,0,0]}},
+                "holes": [{{"points": [{}], "material": [0,1,0,0]}}], "settings": {{"road_width": 0.4}}}}"#,
+            ring.join(",")
+        ),
+    )
+    .unwrap();
+    let out = dir.join("o");
+    let o = run_ok(
+        hollowpath()
+            .arg("plan")
+            .arg(&slice)
+            .args(["--layers", "2", "--out"])
+            .arg(&out),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning: layer 0 (zigzag): coverage") && err.contains("left bare"),
+        "{err}"
+    );
+    let m = read_json(&out.join("metrics.json"));
+    assert_eq!(m["layers"][0]["warnings"].as_array().unwrap().len(), 1);
+    // The spiral covers it.
+    assert!(m["layers"][1]["warnings"].as_array().unwrap().is_empty());
+    let reference = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    let o = run_ok(
+        hollowpath()
+            .args(["plan", reference, "--layers", "2", "--out"])
+            .arg(dir.join("ref")),
+    );
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("warning"));
+}

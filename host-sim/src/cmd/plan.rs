@@ -5,6 +5,7 @@ use std::path::Path;
 
 use super::create_out;
 use hollowpath::toolpath::composition::BlendedField;
+use hollowpath::toolpath::Pattern;
 use host_sim::layers::{self, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
 use host_sim::staged::Staged;
@@ -124,6 +125,11 @@ pub(crate) fn run(
         v["note"] = serde_json::Value::String(note.clone());
         let why = host_sim::metrics::explain_starts(slice, &l.path, note);
         v["start_notes"] = serde_json::to_value(&why).map_err(|e| e.to_string())?;
+        let warnings = layer_warnings(l.index, l.pattern, m);
+        for w in &warnings {
+            eprintln!("warning: layer {} ({}): {w}", l.index, l.pattern.name());
+        }
+        v["warnings"] = serde_json::to_value(&warnings).map_err(|e| e.to_string())?;
         layer_json.push(v);
     }
     let mut doc = serde_json::json!({ "slice": name, "layers": layer_json });
@@ -177,4 +183,31 @@ pub(crate) fn run(
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// Below this coverage a layer is said to leave much of the slice bare (`metrics.json`'s
+/// `warnings`, and stderr): every layer of the reference and random slices covers 0.92 or
+/// more; a zigzag on a C-shaped wall covered 0.39 with nothing said.
+const LOW_COVERAGE: f64 = 0.9;
+
+/// What the user should know of a layer before printing it.
+fn layer_warnings(index: usize, pattern: Pattern, m: &LayerMetrics) -> Vec<String> {
+    let mut out = Vec::new();
+    if m.coverage < LOW_COVERAGE {
+        let why = if pattern == Pattern::Zigzag {
+            "the zigzag's material changing lines do not reach part of the slice (a pocket of \
+             a cell far from its feature, such as the arms of a C-shaped wall, which no line \
+             from the feature enters); the offset spiral (the odd layers; `slice --layers \
+             spiral` lays it on every layer) covers such slices"
+        } else {
+            "the generator could not reach it"
+        };
+        out.push(format!(
+            "coverage {:.3}: {:.0} % of the slice is left bare (red in layer-{index}-deposit.png); \
+             {why}",
+            m.coverage,
+            100.0 * (1.0 - m.coverage)
+        ));
+    }
+    out
 }
