@@ -531,6 +531,10 @@ mod tests {
             }
         );
         assert!(e.to_string().starts_with("channel[2].full_flow"), "{e}");
+        assert!(
+            e.to_string().ends_with("(a finite number, more than 0)"),
+            "{e}"
+        );
         let e = refused(|c| c.channel[0].dead_time_s = -0.01);
         assert!(matches!(
             e,

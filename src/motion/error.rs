@@ -170,7 +170,13 @@ impl fmt::Display for PrinterError {
                 value,
             } => write!(
                 f,
-                "channel[{channel}].{key}: {value} is out of range (a finite number, not negative)"
+                "channel[{channel}].{key}: {value} is out of range (a finite number, {})",
+                // As `PrinterConfig::validate` checks them: a flow and a rate must be some.
+                if matches!(key, "full_flow" | "pwm_hz") {
+                    "more than 0"
+                } else {
+                    "not negative"
+                }
             ),
             PrinterError::Curve { channel, point } => write!(
                 f,
