@@ -402,41 +402,32 @@ fn a_layer_too_long_or_too_large_to_simulate_is_refused_before_it_runs() {
     // A printer crawling at a micrometre a second (it ran for hours), and a slice 2 m across
     // at 10 mm roads (its step trace filled 8 GiB of memory and aborted).
     let out = tmp("size");
-    std::fs::write(out.join("slow.json"), r#"{"print_speed": 1e-6}"#).unwrap();
-    let o = hollowpath()
-        .args(["simulate", SLICE, "--layers", "1", "--printer"])
-        .arg(out.join("slow.json"))
-        .arg("--out")
-        .arg(out.join("o"))
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        stderr.contains("to print at the printer's speeds") && stderr.contains("print_speed"),
-        "{stderr}"
-    );
-    assert!(!out.join("o").join("simulation.json").exists());
     // An axis crawling at a nanometre a second, whatever the print speed (it ran for ever).
-    std::fs::write(
-        out.join("crawl.json"),
-        r#"{"axes": {"x": {"max_speed": 1e-9}}}"#,
-    )
-    .unwrap();
-    let o = hollowpath()
-        .args(["simulate", SLICE, "--layers", "1", "--printer"])
-        .arg(out.join("crawl.json"))
-        .arg("--out")
-        .arg(out.join("c"))
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        stderr.contains("to print at the printer's speeds") && stderr.contains("max_speed"),
-        "{stderr}"
-    );
-    assert!(!out.join("c").join("simulation.json").exists());
+    for (name, printer, key) in [
+        ("slow", r#"{"print_speed": 1e-6}"#, "print_speed"),
+        (
+            "crawl",
+            r#"{"axes": {"x": {"max_speed": 1e-9}}}"#,
+            "max_speed",
+        ),
+    ] {
+        let file = out.join(format!("{name}.json"));
+        std::fs::write(&file, printer).unwrap();
+        let o = hollowpath()
+            .args(["simulate", SLICE, "--layers", "1", "--printer"])
+            .arg(&file)
+            .arg("--out")
+            .arg(out.join(name))
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            stderr.contains("to print at the printer's speeds") && stderr.contains(key),
+            "{stderr}"
+        );
+        assert!(!out.join(name).join("simulation.json").exists());
+    }
     let circle: Vec<String> = (0..24)
         .map(|k| {
             let a = k as f64 * std::f64::consts::TAU / 24.0;
