@@ -121,6 +121,24 @@ fn invalid_slices_name_the_feature_and_reason() {
             slice(SQUARE, &["[[5,5],[12,5],[5,8]]"], ""),
             "hole 0: vertex 1 is not strictly inside the wall",
         ),
+        // Numbered as the file gives them: a clockwise hole (stored the other way round) and
+        // repeated points (stored once) said vertex 3, vertex 2 and edges 0 and 2.
+        (
+            slice(SQUARE, &["[[12,0],[0,-2],[2,0],[0,2]]"], ""),
+            "hole 0: vertex 0 is not strictly inside the wall",
+        ),
+        (
+            slice(SQUARE, &["[[0,0],[0,0],[0,0],[2,0],[12,1],[0,2]]"], ""),
+            "hole 0: vertex 4 is not strictly inside the wall",
+        ),
+        (
+            slice(
+                SQUARE,
+                &["[[0,0],[0,0],[0,0],[3,3],[3,0],[0,3],[-3,3],[-3,0]]"],
+                "",
+            ),
+            "hole 0: edges 2 and 4 intersect",
+        ),
         (
             slice(SQUARE, &[SMALL, "[[0,0],[3,0],[3,3]]"], ""),
             "holes 0 and 1 overlap or touch",

@@ -8,6 +8,23 @@ use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::{Error, FeatureId, Limit};
 
+/// The number, in `points` as given, of edge `k` of the polygon with its repeated
+/// consecutive points dropped: the last index of the `k`-th run of equal points (the given
+/// edge that leaves that vertex). `k` itself where there are fewer runs.
+fn given_edge(points: &[Point], k: usize) -> u16 {
+    let mut run = 0;
+    for i in 0..points.len() {
+        let last_of_run = points.get(i + 1) != Some(&points[i]);
+        if last_of_run {
+            if run == k {
+                return u16::try_from(i).unwrap_or(u16::MAX);
+            }
+            run += 1;
+        }
+    }
+    u16::try_from(k).unwrap_or(u16::MAX)
+}
+
 /// One polygon of a slice with its material: the wall or a hollow feature.
 ///
 /// ```
@@ -125,10 +142,12 @@ impl Feature {
             return Err(Error::ZeroArea { feature: id });
         }
         if let Some((a, b)) = polygon::self_intersection(&pts) {
+            // Counted in the points as given (repeated points and all): the edge leaves the
+            // last of its start's repeats.
             return Err(Error::SelfIntersection {
                 feature: id,
-                edge_a: a as u16,
-                edge_b: b as u16,
+                edge_a: given_edge(points, a),
+                edge_b: given_edge(points, b),
             });
         }
         let area = polygon::double_area(&pts) * 0.5;
@@ -234,6 +253,26 @@ impl Feature {
                     | Error::TooFewPoints { .. },
                 ) if tol > MIN_SIMPLIFY_TOLERANCE => {
                     tol *= 0.5;
+                }
+                // The edges of the simplified contour, counted in the points as given: each
+                // starts at a point kept, after that point's repeats.
+                Err(Error::SelfIntersection {
+                    feature,
+                    edge_a,
+                    edge_b,
+                }) => {
+                    let given = |e: u16| {
+                        let mut i = kept.get(e as usize).map_or(e as usize, |&k| k as usize);
+                        while i + 1 < n && points[i + 1] == points[i] {
+                            i += 1;
+                        }
+                        u16::try_from(i).unwrap_or(e)
+                    };
+                    return Err(Error::SelfIntersection {
+                        feature,
+                        edge_a: given(edge_a),
+                        edge_b: given(edge_b),
+                    });
                 }
                 other => return other,
             }

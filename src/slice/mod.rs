@@ -198,7 +198,7 @@ impl Slice {
                 }
                 Error::HolesOverlap { a, b } => [a as usize, b as usize],
                 Error::HolesNested { outer, inner } => [outer as usize, inner as usize],
-                _ => return Err(e),
+                _ => return Err(self.numbered_as_given(e, wall, holes)),
             };
             let mut refined = false;
             for k in named {
@@ -211,8 +211,63 @@ impl Slice {
                 }
             }
             if !refined {
-                return Err(e);
+                return Err(self.numbered_as_given(e, wall, holes));
             }
+        }
+    }
+
+    /// `e` with its vertex and edge numbers counted in the contours as given rather than as
+    /// stored (counter-clockwise, repeated points dropped, perhaps simplified), so that a
+    /// message points at the file's own vertex: a stored vertex is the first given point at
+    /// its place; a stored edge is the given edge that starts at its first end in the given
+    /// contour's own direction. A number not found stays as stored.
+    fn numbered_as_given(&self, e: Error, wall: &[Point], holes: &[(&[Point], Material)]) -> Error {
+        // Where feature `f`'s stored vertex `v` is in `given` (at most MAX_VERTICES stored,
+        // and a given contour that long or longer is numbered within u16 by the capacity
+        // check it passed).
+        let vertex = |f: &Feature, given: &[Point], v: u16| -> u16 {
+            f.points
+                .get(v as usize)
+                .and_then(|p| given.iter().position(|q| q == p))
+                .and_then(|i| u16::try_from(i).ok())
+                .unwrap_or(v)
+        };
+        // Stored edges run counter-clockwise; a clockwise contour was given the other way.
+        let edge = |f: &Feature, given: &[Point], k: u16| -> u16 {
+            let n = f.points.len();
+            if polygon::double_area(given) < 0.0 && n > 0 {
+                vertex(f, given, ((k as usize + 1) % n) as u16)
+            } else {
+                vertex(f, given, k)
+            }
+        };
+        let hole = |h: u8| {
+            (
+                self.holes.get(h as usize),
+                holes.get(h as usize).map(|g| g.0),
+            )
+        };
+        match e {
+            Error::HoleOutsideWall { hole: h, vertex: v } => match hole(h) {
+                (Some(f), Some(given)) => Error::HoleOutsideWall {
+                    hole: h,
+                    vertex: vertex(f, given, v),
+                },
+                _ => e,
+            },
+            Error::HoleCrossesWall {
+                hole: h,
+                edge: k,
+                wall_edge,
+            } => match hole(h) {
+                (Some(f), Some(given)) => Error::HoleCrossesWall {
+                    hole: h,
+                    edge: edge(f, given, k),
+                    wall_edge: edge(&self.wall, wall, wall_edge),
+                },
+                _ => e,
+            },
+            other => other,
         }
     }
 
