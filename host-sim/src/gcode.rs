@@ -177,10 +177,11 @@ pub fn export_part(
     s
 }
 
-/// The widest road a move read back may lay, mm: no nozzle lays a wider one, and the
-/// simulation's deposit of a road grows with its width squared (a stray `E1000` over a short
-/// move would ask for a road metres wide).
-pub const MAX_PARSED_WIDTH_MM: f64 = 10.0;
+/// The widest road a move read back may lay, mm: the widest road a slice may set
+/// ([`MAX_ROAD_WIDTH_MM`](hollowpath::config::MAX_ROAD_WIDTH_MM)). The simulation's deposit
+/// of a road grows with its width squared (a stray `E1000` over a short move asked for a road
+/// metres wide).
+pub const MAX_PARSED_WIDTH_MM: f64 = hollowpath::config::MAX_ROAD_WIDTH_MM as f64;
 
 /// One layer read back: the pattern named by its `; layer` comment, if any, and its path.
 pub type ParsedLayer = (Option<String>, Vec<Vertex>);
@@ -317,7 +318,10 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                 };
                 if width > MAX_PARSED_WIDTH_MM {
                     return Err(format!(
-                        "line {line_no}: the move extrudes {extruded} mm of {filament} mm                          filament over {len:.3} mm, a road {width:.3e} mm wide at a layer                          height of {layer_height} mm; at most {MAX_PARSED_WIDTH_MM} mm is read                          (is `E` absolute, under M82, where the file means relative?)"
+                        "line {line_no}: the move extrudes {extruded} mm of {filament} mm \
+                         filament over {len:.3} mm, a road {width:.3e} mm wide at a layer \
+                         height of {layer_height} mm; at most {MAX_PARSED_WIDTH_MM} mm is read \
+                         (is `E` absolute, under M82, where the file means relative?)"
                     ));
                 }
                 layer.push(Vertex {

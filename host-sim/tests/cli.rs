@@ -17,6 +17,13 @@ fn run_ok(cmd: &mut Command) -> std::process::Output {
     out
 }
 
+/// Runs the tool and insists it failed; its stderr.
+fn run_err(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(!out.status.success(), "it succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 fn read_json(path: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -335,12 +342,7 @@ fn output_naming_the_input_is_refused() {
 /// ten-layer model (one per core is the default).
 #[test]
 fn slice_refuses_more_planning_threads_than_it_allows() {
-    let o = hollowpath()
-        .args(["slice", "model.stl", "--jobs", "30000"])
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = run_err(hollowpath().args(["slice", "model.stl", "--jobs", "30000"]));
     assert!(err.contains("--jobs") && err.contains("0..=256"), "{err}");
 }
 
@@ -363,15 +365,13 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     std::fs::create_dir_all(&folder).unwrap();
     for (gcode, says) in [(&link, "it is a link"), (&folder, "it is a folder")] {
         let out = dir.join("o");
-        let st = hollowpath()
-            .args(["plan", slice, "--out"])
-            .arg(&out)
-            .arg("--gcode")
-            .arg(gcode)
-            .output()
-            .unwrap();
-        assert!(!st.status.success());
-        let err = String::from_utf8_lossy(&st.stderr);
+        let err = run_err(
+            hollowpath()
+                .args(["plan", slice, "--out"])
+                .arg(&out)
+                .arg("--gcode")
+                .arg(gcode),
+        );
         assert!(err.contains(says), "{err}");
         assert!(!out.exists(), "{says}: the output folder was made");
     }
@@ -382,30 +382,26 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
     // One of the run's own files.
     let out = dir.join("same");
-    let st = hollowpath()
-        .args(["plan", slice, "--out"])
-        .arg(&out)
-        .arg("--gcode")
-        .arg(out.join("metrics.json"))
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    let err = run_err(
+        hollowpath()
+            .args(["plan", slice, "--out"])
+            .arg(&out)
+            .arg("--gcode")
+            .arg(out.join("metrics.json")),
+    );
     assert!(err.contains("twice"), "{err}");
     assert!(!out.join("metrics.json").exists() && !out.join("mcls.json").exists());
     // A port that is an ordinary file.
     let victim = dir.join("victim.json");
     std::fs::copy(slice, &victim).unwrap();
     let before = std::fs::read(&victim).unwrap();
-    let st = hollowpath()
-        .arg("print")
-        .arg(&victim)
-        .arg("--port")
-        .arg(&victim)
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    let err = run_err(
+        hollowpath()
+            .arg("print")
+            .arg(&victim)
+            .arg("--port")
+            .arg(&victim),
+    );
     assert!(err.contains("not a serial port"), "{err}");
     assert_eq!(std::fs::read(&victim).unwrap(), before);
 }

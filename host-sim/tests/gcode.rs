@@ -267,6 +267,7 @@ fn malformed_gcode_is_refused_with_its_line() {
     for e in ["1000", "1e6", "1e30"] {
         let err = parse(&format!("G1 X10 Y10 E{e} F600\n")).unwrap_err();
         assert!(err.contains("line 1") && err.contains("wide"), "{err}");
+        assert!(!err.contains("  "), "a run of spaces in the message: {err}");
     }
     // The widest a file may lay is read (just under 10 mm over a 10 mm move at 0.3 mm layers
     // of 1.75 mm filament), just over it is not.

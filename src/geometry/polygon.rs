@@ -25,6 +25,14 @@ pub fn perimeter(pts: &[Point]) -> f32 {
     (0..n).map(|i| pts[i].dist(pts[(i + 1) % n])).sum()
 }
 
+/// Where edge `ab` crosses the horizontal line at `y`, if one end lies above it and the other
+/// not: the one crossing formula of every even-odd test ([`contains`],
+/// `Feature::contains`, `Feature::row_crossings`), so that they agree to the bit.
+#[inline]
+pub fn row_crossing(a: Point, b: Point, y: f32) -> Option<f32> {
+    ((a.y > y) != (b.y > y)).then(|| a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x))
+}
+
 /// Even-odd point-in-polygon test.
 ///
 /// ```
@@ -38,9 +46,7 @@ pub fn contains(pts: &[Point], p: Point) -> bool {
     let mut inside = false;
     let mut j = n - 1;
     for i in 0..n {
-        let (a, b) = (pts[i], pts[j]);
-        if (a.y > p.y) != (b.y > p.y) {
-            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+        if let Some(x) = row_crossing(pts[i], pts[j], p.y) {
             if p.x < x {
                 inside = !inside;
             }

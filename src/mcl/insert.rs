@@ -256,19 +256,13 @@ fn trace(
             .map(|c| (c, slice.holes()[c].signed_distance(x)))
             .fold((i, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     };
-    // Whether hole `f`'s box lies within `d` of `x` (by more than rounding could move either:
-    // a hole's distance is at least its box's).
-    let box_within = |f: &crate::Feature, x: Point, d: f32| {
-        let reach = d + polygon::rounding_slack(x, f.bbox());
-        polygon::bbox_distance2(f.bbox(), x) <= reach * reach
-    };
     // Whether another hole is as near `x` as `d` (`others(x).1 <= d`), measuring only the
     // holes whose box is within `d`.
     let other_within = |x: Point, d: f32| slice.hole_within(x, d, |c| c == i);
     // Whether another hole's box lies within `d` of `x`: where none does, no other hole is
     // as near `x` as `d` (`other_within` would measure none).
     let other_box_within = |x: Point, d: f32| {
-        (slice.holes().iter().enumerate()).any(|(c, f)| c != i && box_within(f, x, d))
+        (slice.holes().iter().enumerate()).any(|(c, f)| c != i && f.box_within(x, d))
     };
     let hole_box = slice.holes()[i].bbox();
     out.clear();

@@ -11,6 +11,9 @@ use crate::{Error, FeatureId, Limit};
 /// The number, in `points` as given, of edge `k` of the polygon with its repeated
 /// consecutive points dropped: the last index of the `k`-th run of equal points (the given
 /// edge that leaves that vertex). `k` itself where there are fewer runs.
+// An error's path: kept out of `Feature::new`'s frame.
+#[cold]
+#[inline(never)]
 fn given_edge(points: &[Point], k: usize) -> u16 {
     let mut run = 0;
     for i in 0..points.len() {
@@ -23,6 +26,22 @@ fn given_edge(points: &[Point], k: usize) -> u16 {
         }
     }
     u16::try_from(k).unwrap_or(u16::MAX)
+}
+
+/// The number, in `points` as given, of edge `e` of the contour simplified to the points
+/// `kept` (their indices in `points`): it starts at its point kept, after that point's
+/// repeats. `e` itself where it is not a kept point's.
+#[cold]
+#[inline(never)]
+fn kept_edge(points: &[Point], kept: &[u32], e: u16) -> u16 {
+    let Some(&k) = kept.get(e as usize) else {
+        return e;
+    };
+    let mut i = k as usize;
+    while i + 1 < points.len() && points[i + 1] == points[i] {
+        i += 1;
+    }
+    u16::try_from(i).unwrap_or(e)
 }
 
 /// One polygon of a slice with its material: the wall or a hollow feature.
@@ -212,6 +231,10 @@ impl Feature {
     /// assert!(f.points().len() <= 128);
     /// # }).unwrap().join().unwrap();
     /// ```
+    // Not inlined: its contour buffers (3 KiB on the MCU) stay in a frame of its own, not in
+    // the frame of a caller that lives through every later phase (the bench's validate peak
+    // 17 808 -> 17 408 bytes).
+    #[inline(never)]
     pub fn simplified(
         id: FeatureId,
         points: &[Point],
@@ -261,17 +284,10 @@ impl Feature {
                     edge_a,
                     edge_b,
                 }) => {
-                    let given = |e: u16| {
-                        let mut i = kept.get(e as usize).map_or(e as usize, |&k| k as usize);
-                        while i + 1 < n && points[i + 1] == points[i] {
-                            i += 1;
-                        }
-                        u16::try_from(i).unwrap_or(e)
-                    };
                     return Err(Error::SelfIntersection {
                         feature,
-                        edge_a: given(edge_a),
-                        edge_b: given(edge_b),
+                        edge_a: kept_edge(&points[..n], &kept, edge_a),
+                        edge_b: kept_edge(&points[..n], &kept, edge_b),
                     });
                 }
                 other => return other,
@@ -409,6 +425,14 @@ impl Feature {
         }
     }
 
+    /// Whether the feature's box lies within `d` of `p`, with room for rounding
+    /// ([`polygon::rounding_slack`]): where it does not, the feature is farther than `d` (its
+    /// distance is at least its box's).
+    pub(crate) fn box_within(&self, p: Point, d: f32) -> bool {
+        let reach = d + polygon::rounding_slack(p, self.bbox);
+        polygon::bbox_distance2(self.bbox, p) <= reach * reach
+    }
+
     /// The squared distance from `p` to the nearest box of the feature's chunks of edges: a
     /// lower bound of the squared distance to its boundary.
     pub fn nearest_box2(&self, p: Point) -> f32 {
@@ -430,9 +454,7 @@ impl Feature {
         out.clear();
         let n = self.points.len();
         for k in 0..n {
-            let (a, b) = (self.points[(k + 1) % n], self.points[k]);
-            if (a.y > y) != (b.y > y) {
-                let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
+            if let Some(x) = polygon::row_crossing(self.points[(k + 1) % n], self.points[k], y) {
                 // One crossing an edge at most, and `out` holds one per vertex: never full.
                 if out.push(x).is_err() {
                     break;
@@ -464,11 +486,8 @@ impl Feature {
             }
             for k in edges {
                 let (a, b) = (self.points[(k + 1) % n], self.points[k]);
-                if (a.y > p.y) != (b.y > p.y) {
-                    let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-                    if p.x < x {
-                        inside = !inside;
-                    }
+                if polygon::row_crossing(a, b, p.y).is_some_and(|x| p.x < x) {
+                    inside = !inside;
                 }
             }
         }

@@ -80,18 +80,15 @@ pub(crate) fn run_simulation(
             let up_planner = host_sim::plan(&uploaded).map_err(|e| {
                 format!("{RECEIVED}: {e}; the controller could not plan it (to simulate the unrounded layers alone, export them with `plan --gcode` and simulate that file with `--gcode`)")
             })?;
-            Some((uploaded, up_planner))
+            Some((count.unwrap_or(2), uploaded, up_planner))
         }
         Source::Gcode(_) => None,
     };
     // Each layer to run: its index, pattern, the moves from home, and what they state.
     type Job = (usize, Pattern, Vec<Move>, Option<layers::Layer>);
     let mut jobs: Vec<Job> = Vec::new();
-    // The layers the controller would plan and print (none for a G-code file).
-    let mut job_layers = None;
     match source {
         Source::Plan => {
-            job_layers = Some(count.unwrap_or(2));
             let built = layers::layers(slice, plan, Fill::Offset, count.unwrap_or(2))
                 .map_err(|e| format!("layers failed: {e}"))?;
             for l in built {
@@ -179,7 +176,8 @@ pub(crate) fn run_simulation(
     // micrometres), its whole job on one virtual printer through the core's job routine, as
     // the controller prints it. A G-code file is not a job the controller plans: none.
     let mut digest = None;
-    if let (Some(count), Some((uploaded, up_planner))) = (job_layers, controller.as_ref()) {
+    if let Some((count, uploaded, up_planner)) = &controller {
+        let count = *count;
         let up_plan = up_planner.last_plan();
         let counted = host_sim::virtual_printer::run_job_counted(cfg, uploaded, up_plan, count)
             .map_err(|e| {

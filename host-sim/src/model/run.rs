@@ -178,18 +178,15 @@ fn write_outputs(
     let out = &args.out;
     let mut staged = Staged::new(args.model.as_deref());
     let gcode_path = args.gcode.clone().unwrap_or_else(|| out.join("part.gcode"));
-    // A G-code file named apart from the folder is checked before the folder is made, so a
-    // run refused for it leaves no folder behind (the default one's folder is made next).
-    if args.gcode.is_some() {
-        staged.check(&gcode_path)?;
-    }
+    // Checked before the folder is made (which counts as there), so a run refused for its
+    // G-code file leaves no folder behind.
+    staged.check_making(&gcode_path, Some(out))?;
     if out.exists() && !out.is_dir() {
         return Err(format!("--out {} is a file: give a folder", out.display()));
     }
     for d in [out.clone(), out.join("slices"), out.join("previews")] {
         std::fs::create_dir_all(&d).map_err(|e| format!("cannot create {}: {e}", d.display()))?;
     }
-    staged.check(&gcode_path)?;
     let name = |l: usize, i: usize, ext: &str| {
         if i == 0 {
             format!("layer-{l:04}{ext}")
