@@ -529,6 +529,45 @@ fn separate_islands_print_one_road_each_with_one_travel_between() {
 }
 
 #[test]
+fn overlapping_solids_are_refused_naming_the_layer_and_the_place() {
+    // Two round blocks 8 mm across, their centres 5 mm apart: each is closed, but together
+    // they would print the lens where they overlap twice.
+    let mut tris = cylinder(1, 0.6).triangles();
+    let mut other = cylinder(1, 0.6).triangles();
+    for t in &mut other {
+        for v in t.iter_mut() {
+            v[0] += 5.0;
+        }
+    }
+    tris.extend(other);
+    let dir = tmp("overlap");
+    let stl = write(&dir, "two.stl", &stl::to_binary(&tris));
+    let out = dir.join("out");
+    let err = run_err(
+        hollowpath()
+            .args(["slice", "--layer-height", "0.3", "--out"])
+            .arg(&out)
+            .arg(&stl),
+    );
+    assert!(err.contains("layer 0 (z 0.1500 mm)"), "{err}");
+    assert!(err.contains("surfaces cross at (2.5"), "{err}");
+    assert!(err.contains("boolean union"), "{err}");
+    assert!(!out.join("part.gcode").exists());
+    // Side by side, touching at one point of each cut, they are two islands (above).
+    let contours = vec![
+        vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+        vec![[1.0, 1.0], [2.0, 1.0], [2.0, 2.0], [1.0, 2.0]],
+        vec![[1.0, 0.2], [2.0, 0.2], [2.0, 0.8], [1.0, 0.8]],
+    ];
+    assert_eq!(host_sim::model::nest::crossing(&contours), None);
+    let crossed = vec![
+        contours[0].clone(),
+        vec![[0.5, 0.5], [1.5, 0.5], [1.5, 1.5], [0.5, 1.5]],
+    ];
+    assert_eq!(host_sim::model::nest::crossing(&crossed), Some([1.0, 0.5]));
+}
+
+#[test]
 fn parallel_planning_writes_the_same_bytes_as_sequential() {
     let dir = tmp("jobs");
     let stl = write(

@@ -53,6 +53,16 @@ pub enum ModelError {
         /// Where the chain stops.
         at: [f64; 2],
     },
+    /// Two cut contours cross: the model holds solids that overlap (or a surface that passes
+    /// through itself), which would print twice where they overlap.
+    Overlap {
+        /// The layer, from 0 at the bed.
+        layer: usize,
+        /// The cut's height, mm.
+        z: f64,
+        /// Where two contours cross.
+        at: [f64; 2],
+    },
     /// The layer height is not a positive number up to the road width.
     LayerHeight(f64),
     /// The road width is out of the core's range.
@@ -117,6 +127,13 @@ impl fmt::Display for ModelError {
             ModelError::ChainOpen { layer, z, at } => write!(
                 f,
                 "layer {layer} (z {z:.4} mm): the cut contour does not close at ({:.4}, {:.4})",
+                at[0], at[1]
+            ),
+            ModelError::Overlap { layer, z, at } => write!(
+                f,
+                "layer {layer} (z {z:.4} mm): the model's surfaces cross at ({:.4}, {:.4}): it holds \
+                 overlapping solids or a surface through itself; join them into one solid (a \
+                 boolean union) before slicing",
                 at[0], at[1]
             ),
             ModelError::LayerHeight(h) => write!(

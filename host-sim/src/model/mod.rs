@@ -94,6 +94,9 @@ pub fn slice_mesh(
         .map(|k| {
             let z = (k as f64 + 0.5) * layer_height;
             let contours = cutter.contours(lo[2] + z, k)?;
+            if let Some(at) = nest::crossing(&contours) {
+                return Err(ModelError::Overlap { layer: k, z, at });
+            }
             on_layer();
             Ok((z, nest::islands(contours)))
         })

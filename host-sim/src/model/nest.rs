@@ -82,3 +82,64 @@ pub fn nest(contours: &[Vec<[f64; 2]>]) -> Vec<(usize, Vec<usize>)> {
         })
         .collect()
 }
+
+/// A point where two of `contours` cross, if any do. The contours of a cut through one closed
+/// solid never cross (the nesting above rests on it); two that do come from solids that
+/// overlap, or a surface through itself, which would print twice where they overlap. Only a
+/// proper crossing counts: contours that touch at a point or run along each other (solids side
+/// by side) do not. Segments are binned on a grid of about one cell per segment, so a layer of
+/// many contours costs about as much as reading them.
+pub fn crossing(contours: &[Vec<[f64; 2]>]) -> Option<[f64; 2]> {
+    if contours.len() < 2 {
+        return None;
+    }
+    // (contour, from, to)
+    let segs: Vec<(usize, [f64; 2], [f64; 2])> = contours
+        .iter()
+        .enumerate()
+        .flat_map(|(c, pts)| (0..pts.len()).map(move |k| (c, pts[k], pts[(k + 1) % pts.len()])))
+        .collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &(_, a, _) in &segs {
+        for i in 0..2 {
+            lo[i] = lo[i].min(a[i]);
+            hi[i] = hi[i].max(a[i]);
+        }
+    }
+    let side = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / (segs.len() as f64).sqrt()).max(1e-9);
+    let cells = |v: f64, i: usize| (((v - lo[i]) / side) as usize).min(1 << 20);
+    let nx = cells(hi[0], 0) + 1;
+    let mut grid: std::collections::HashMap<usize, Vec<u32>> = std::collections::HashMap::new();
+    for (s, &(_, a, b)) in segs.iter().enumerate() {
+        for j in cells(a[1].min(b[1]), 1)..=cells(a[1].max(b[1]), 1) {
+            for i in cells(a[0].min(b[0]), 0)..=cells(a[0].max(b[0]), 0) {
+                grid.entry(j * nx + i).or_default().push(s as u32);
+            }
+        }
+    }
+    let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let mut keys: Vec<usize> = grid.keys().copied().collect();
+    // The first crossing in a repeatable order, for the message.
+    keys.sort_unstable();
+    for key in keys {
+        let bin = &grid[&key];
+        for (x, &s) in bin.iter().enumerate() {
+            let (cs, a, b) = segs[s as usize];
+            for &t in &bin[x + 1..] {
+                let (ct, c, d) = segs[t as usize];
+                if cs == ct {
+                    continue;
+                }
+                let (o1, o2) = (orient(a, b, c), orient(a, b, d));
+                let (o3, o4) = (orient(c, d, a), orient(c, d, b));
+                if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
+                    let t = o3 / (o3 - o4);
+                    return Some([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+                }
+            }
+        }
+    }
+    None
+}
