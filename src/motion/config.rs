@@ -35,6 +35,10 @@ pub const MAX_TICK_HZ: u32 = 100_000_000;
 /// Finest axis the engine accepts, steps per millimetre (so that every position within
 /// [`MAX_POSITION_MM`](super::block::MAX_POSITION_MM) is an `i32` of steps).
 pub const MAX_STEPS_PER_MM: f32 = 100_000.0;
+/// Coarsest axis the engine accepts, steps per millimetre: coarser cannot place a road a tenth
+/// of a millimetre wide anywhere near where it belongs (printers have 80 to 3 200; a value
+/// like 1e-9, a slip of the exponent, would move nothing at all).
+pub const MIN_STEPS_PER_MM: f32 = 1.0;
 /// Longest step pulse or direction setup accepted, ns.
 pub const MAX_PULSE_NS: u32 = 100_000;
 /// Slowest timer the engine accepts, ticks per second.
@@ -290,7 +294,7 @@ impl PrinterConfig {
         let limit = self.max_step_rate();
         for (i, a) in self.axes.iter().enumerate() {
             let axis = i as u8;
-            if !positive(a.steps_per_mm) || a.steps_per_mm > MAX_STEPS_PER_MM {
+            if !(MIN_STEPS_PER_MM..=MAX_STEPS_PER_MM).contains(&a.steps_per_mm) {
                 return Err(PrinterError::StepsPerMm {
                     axis,
                     value: a.steps_per_mm,
@@ -334,7 +338,9 @@ impl PrinterConfig {
             ("homing_travel", self.homing_travel),
             ("layer_height", self.layer_height),
         ] {
-            if upper_bound(key).is_some_and(|max| value > max) {
+            if upper_bound(key).is_some_and(|max| value > max)
+                || lower_bound(key).is_some_and(|min| value < min)
+            {
                 return Err(PrinterError::Speed { key, value });
             }
         }
@@ -401,6 +407,18 @@ impl PrinterConfig {
 /// Thickest layer a printer may be set to lay, mm: a bioprinter's are 0.1 to 1 mm (a layer of
 /// 10^6 mm put the first move out of range, refused as it ran).
 pub const MAX_LAYER_HEIGHT_MM: f32 = 10.0;
+
+/// Thinnest layer a printer may be set to lay, mm: the slice's own least layer height.
+pub const MIN_LAYER_HEIGHT_MM: f32 = crate::config::MIN_ROAD_WIDTH_MM;
+
+/// The least value a positive setting `key` may take, where it has one above 0: a layer
+/// thinner than any slice may ask for.
+pub(crate) fn lower_bound(key: &str) -> Option<f32> {
+    match key {
+        "layer_height" => Some(MIN_LAYER_HEIGHT_MM),
+        _ => None,
+    }
+}
 
 /// The largest value a positive setting `key` may take, where it has one: longer than the
 /// whole range is not a homing move (and its steps fit a u32); a layer no printer lays.
@@ -469,6 +487,24 @@ mod tests {
         assert!(matches!(e, PrinterError::StepsPerMm { axis: 2, .. }));
         let e = refused(|c| c.axes[0].steps_per_mm = f32::NAN);
         assert!(matches!(e, PrinterError::StepsPerMm { axis: 0, .. }));
+        // A slip of the exponent: no step would ever be taken.
+        let e = refused(|c| c.axes[0].steps_per_mm = 1e-9);
+        assert_eq!(
+            e.to_string(),
+            "axes.x.steps_per_mm: 0.000000001 is out of range (at least 1, at most 100000)"
+        );
+        let e = refused(|c| c.layer_height = 1e-9);
+        assert_eq!(
+            e.to_string(),
+            "layer_height: 0.000000001 is out of range (at least 0.01, at most 10)"
+        );
+        refused(|c| c.layer_height = 0.0099);
+        let mut thin = PrinterConfig {
+            layer_height: MIN_LAYER_HEIGHT_MM,
+            ..PrinterConfig::default()
+        };
+        thin.axes[2].steps_per_mm = MIN_STEPS_PER_MM;
+        thin.validate().unwrap();
         let e = refused(|c| c.axes[0].max_speed = -1.0);
         assert_eq!(
             e,

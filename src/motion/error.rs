@@ -3,7 +3,8 @@
 use core::fmt;
 
 use super::config::{
-    AXES, MAX_PULSE_NS, MAX_STEPS_PER_MM, MAX_TICK_HZ, MIN_TICK_HZ, SEGMENT_RING, SEGMENT_S,
+    AXES, MAX_PULSE_NS, MAX_STEPS_PER_MM, MAX_TICK_HZ, MIN_STEPS_PER_MM, MIN_TICK_HZ, SEGMENT_RING,
+    SEGMENT_S,
 };
 use crate::config::CHANNELS;
 use crate::FeatureId;
@@ -119,7 +120,7 @@ impl fmt::Display for PrinterError {
         match *self {
             PrinterError::StepsPerMm { axis: a, value } => write!(
                 f,
-                "axes.{}.steps_per_mm: {value} is out of range (more than 0, at most {MAX_STEPS_PER_MM})",
+                "axes.{}.steps_per_mm: {value} is out of range (at least {MIN_STEPS_PER_MM}, at most {MAX_STEPS_PER_MM})",
                 axis(a)
             ),
             PrinterError::MaxSpeed { axis: a, value } => write!(
@@ -141,12 +142,18 @@ impl fmt::Display for PrinterError {
                 "axes.{}.max_accel: {value} mm/s^2 is not a positive finite number",
                 axis(a)
             ),
-            PrinterError::Speed { key, value } => match super::config::upper_bound(key) {
-                Some(max) if value.is_finite() && value > 0.0 => {
-                    write!(f, "{key}: {value} is out of range (at most {max})")
+            PrinterError::Speed { key, value } => {
+                let (min, max) = (super::config::lower_bound(key), super::config::upper_bound(key));
+                match (min, max) {
+                    (Some(min), Some(max)) if value.is_finite() && value > 0.0 => {
+                        write!(f, "{key}: {value} is out of range (at least {min}, at most {max})")
+                    }
+                    (None, Some(max)) if value.is_finite() && value > 0.0 => {
+                        write!(f, "{key}: {value} is out of range (at most {max})")
+                    }
+                    _ => write!(f, "{key}: {value} is not a positive finite number"),
                 }
-                _ => write!(f, "{key}: {value} is not a positive finite number"),
-            },
+            }
             PrinterError::Home { axis: a } => write!(
                 f,
                 "home.{}: not a finite number within {} mm",
