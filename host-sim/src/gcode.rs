@@ -183,6 +183,16 @@ pub fn export_part(
 /// metres wide).
 pub const MAX_PARSED_WIDTH_MM: f64 = hollowpath::config::MAX_ROAD_WIDTH_MM as f64;
 
+/// A word of the file as a message shows it: at most 40 characters of it (a word of a
+/// hundred kilobytes was echoed whole).
+fn shown(word: &str) -> String {
+    const SHOWN: usize = 40;
+    match word.char_indices().nth(SHOWN) {
+        Some((cut, _)) => format!("{}... ({} characters)", &word[..cut], word.chars().count()),
+        None => word.to_string(),
+    }
+}
+
 /// One layer read back: the pattern named by its `; layer` comment, if any, and its path.
 pub type ParsedLayer = (Option<String>, Vec<Vertex>);
 
@@ -194,7 +204,8 @@ pub type ParsedLayer = (Option<String>, Vec<Vertex>);
 /// road tapers between those means); `M165` sets the
 /// composition (normalised; channel A alone before the first); `G90`/`G91` switch absolute and
 /// relative positions, `G92 E` resets an absolute `E`; a `; layer` comment, or a `Z` change in
-/// a layer that already has vertices, starts a new layer. Anything else is ignored.
+/// a layer that already has vertices, starts a new layer. `G2`/`G3` arcs are refused (their
+/// road would be missing); anything else is ignored.
 pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
     let mut layers: Vec<ParsedLayer> = Vec::new();
     let mut material: Material = [0.0; CHANNELS];
@@ -244,10 +255,10 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
             } else {
                 value
                     .parse::<f64>()
-                    .map_err(|_| format!("line {line_no}: bad number in `{word}`"))?
+                    .map_err(|_| format!("line {line_no}: bad number in `{}`", shown(word)))?
             };
             if !value.is_finite() {
-                return Err(format!("line {line_no}: `{word}` is not finite"));
+                return Err(format!("line {line_no}: `{}` is not finite", shown(word)));
             }
             args.push((letter, value));
         }
@@ -330,6 +341,13 @@ pub fn parse(text: &str) -> Result<Vec<ParsedLayer>, String> {
                     width: width as f32,
                     deposit,
                 });
+            }
+            "G2" | "G02" | "G3" | "G03" | "G5" | "G05" => {
+                return Err(format!(
+                    "line {line_no}: {command} (an arc or a curve) is not read, and a print of \
+                     the file without it would lack its road: export the G-code with arcs off \
+                     (PrusaSlicer: Arc fitting Disabled), as straight G1 moves"
+                ));
             }
             "G90" => absolute = true,
             "G91" => absolute = false,

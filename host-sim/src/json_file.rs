@@ -114,3 +114,36 @@ impl<'de> serde::de::Visitor<'de> for UniqueVisitor {
         Ok(Unique)
     }
 }
+
+/// Byte offset of 1-based `line`, `column`.
+pub fn offset_of(text: &str, line: usize, column: usize) -> usize {
+    let mut off = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            return off + column.saturating_sub(1).min(l.len());
+        }
+        off += l.len();
+    }
+    text.len()
+}
+
+/// Whether a JSON syntax error at `line` and `column` of `text` stands on `NaN` or an
+/// infinity, which some writers put where a number belongs and JSON has no spelling for.
+pub fn at_non_finite(text: &str, line: usize, column: usize) -> bool {
+    // Bytes, not characters: the column may fall inside a character.
+    let bytes = text.as_bytes();
+    let mut k = offset_of(text, line, column).saturating_sub(1);
+    while k < bytes.len() && b"-+,[: \t\r\n".contains(&bytes[k]) {
+        k += 1;
+    }
+    [
+        &b"NaN"[..],
+        b"nan",
+        b"Infinity",
+        b"infinity",
+        b"inf",
+        b"Inf",
+    ]
+    .iter()
+    .any(|w| bytes[k..].starts_with(w))
+}

@@ -104,23 +104,11 @@ fn key_before(text: &str, offset: usize) -> Option<String> {
     Some(before[open + 1..].to_string())
 }
 
-/// Byte offset of 1-based `line`, `column`.
-fn offset_of(text: &str, line: usize, column: usize) -> usize {
-    let mut off = 0;
-    for (i, l) in text.split_inclusive('\n').enumerate() {
-        if i + 1 == line {
-            return off + column.saturating_sub(1).min(l.len());
-        }
-        off += l.len();
-    }
-    text.len()
-}
-
 /// Parses and validates a printer file's text.
 pub fn parse(text: &str) -> Result<PrinterConfig, PrinterFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let doc: Value = crate::json_file::parse_unique(text).map_err(|e| {
-        let key = key_before(text, offset_of(text, e.line(), e.column()));
+        let key = key_before(text, json_file::offset_of(text, e.line(), e.column()));
         PrinterFileError::Json(e, key)
     })?;
     let mut cfg = PrinterConfig::default();

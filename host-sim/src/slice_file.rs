@@ -187,7 +187,16 @@ pub fn load_contours(path: &Path) -> Result<Contours, SliceFileError> {
 /// Parses slice JSON into its contours and settings: the format checked, the slice not.
 pub fn parse_contours(text: &str) -> Result<Contours, SliceFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let doc: Value = crate::json_file::parse_unique(text).map_err(SliceFileError::Json)?;
+    let doc: Value = crate::json_file::parse_unique(text).map_err(|e| {
+        if json_file::at_non_finite(text, e.line(), e.column()) {
+            SliceFileError::Format(format!(
+                "malformed JSON: {e}: NaN and infinities are not JSON numbers; every coordinate \
+                 and setting is a finite number"
+            ))
+        } else {
+            SliceFileError::Json(e)
+        }
+    })?;
     let top = object(&doc, "a slice file", "at the top level", TOP_KEYS)?;
     let mut strings = [None, None, None];
     for (slot, key) in strings.iter_mut().zip(["name", "description", "units"]) {

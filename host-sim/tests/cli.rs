@@ -404,6 +404,9 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     );
     assert!(err.contains("not a serial port"), "{err}");
     assert_eq!(std::fs::read(&victim).unwrap(), before);
+    // Neither line given: both ways of giving one are named (it asked for --port alone).
+    let err = run_err(hollowpath().arg("print").arg(&victim));
+    assert!(err.contains("--port") && err.contains("--tcp"), "{err}");
 }
 
 /// A layer that leaves much of the slice bare says so: a zigzag on a C-shaped wall whose one

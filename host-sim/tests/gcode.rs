@@ -273,6 +273,20 @@ fn malformed_gcode_is_refused_with_its_line() {
     // of 1.75 mm filament), just over it is not.
     assert!(parse("G1 X10 E12.3\n").is_ok());
     assert!(parse("G1 X10 E12.5\n").is_err());
+    // An arc is refused by name (it was passed over: a file of arcs read as no road at all).
+    for arc in ["G2 X2 Y2 I1 J0 E1", "g03 X1 Y0 R1 E0.2"] {
+        let err = parse(&format!("G21\nM83\nG1 X1 Y1\n{arc}\n")).unwrap_err();
+        assert!(
+            err.starts_with("line 4: G") && err.contains("arcs off"),
+            "{err}"
+        );
+    }
+    // A long bad word is shown cut short.
+    let err = parse(&format!("G1 X{}\n", "9".repeat(50_000) + "x")).unwrap_err();
+    assert!(
+        err.len() < 120 && err.contains("(50002 characters)"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -66,6 +66,19 @@ fn malformed_and_truncated_json() {
     assert!(e.contains("truncated"), "{e}");
     let e = err(r#"{"outer": {"points": [[0,0] [1,1]]}}"#);
     assert!(e.contains("malformed JSON"), "{e}");
+    assert!(!e.contains("NaN"), "{e}");
+    // A writer's NaN or infinity where a number belongs is named (it said only "expected
+    // value at line 1 column 31"), wherever it stands on the line, multi-byte text before it.
+    for bad in ["NaN", "-Infinity", "Infinity", "nan"] {
+        let e = err(&format!(
+            "{{\"name\": \"µ-vessel\", \"outer\": {{\"points\": [[0,0],\n [1, {bad}], [1,1]]}}}}"
+        ));
+        assert!(e.contains("malformed JSON") && e.contains("line 2"), "{e}");
+        assert!(
+            e.contains("NaN and infinities are not JSON numbers"),
+            "{bad}: {e}"
+        );
+    }
     let e = err(r#"{"holes": []}"#);
     assert_eq!(e, "missing key \"outer\" at the top level");
     let e = err(r#"{"outer": {"points": "square", "material": {}}, "holes": []}"#);

@@ -112,11 +112,12 @@ pub(crate) enum Command {
     },
     /// Print a slice on the controller over the link (a serial port, or TCP to QEMU's
     /// `-serial tcp:...`): progress as it comes, the telemetry in --report.
+    #[command(group(clap::ArgGroup::new("line").required(true).args(["port", "tcp"])))]
     Print {
         /// The slice file (JSON, see SLICE_FORMAT.md).
         slice: PathBuf,
         /// The serial port (e.g. /dev/ttyUSB0, or the pty QEMU's `-serial pty` opened).
-        #[arg(long, conflicts_with = "tcp", required_unless_present = "tcp")]
+        #[arg(long)]
         port: Option<String>,
         /// HOST:PORT of a TCP serial line (QEMU's `-serial tcp:HOST:PORT,server=on`).
         #[arg(long)]
