@@ -153,6 +153,7 @@ impl Planner {
                     half_points: 0,
                     failed_traces: 0,
                     dropped_crossing: 0,
+                    dropped_crowded: 0,
                     off_bisector: 0,
                     matched_pairs: 0,
                     removed_unmatched: 0,

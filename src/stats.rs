@@ -24,6 +24,9 @@ pub struct PlanStats {
     pub failed_traces: u32,
     /// Halves dropped because they crossed a neighbour.
     pub dropped_crossing: u32,
+    /// Halves of a strong fan dropped because they ran too close to a neighbour for too long
+    /// (`mcl::insert`).
+    pub dropped_crowded: u32,
     /// Bisector halves whose end lay on no traced bisector piece (removed).
     pub off_bisector: u32,
     /// Matched pairs.

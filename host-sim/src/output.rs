@@ -35,7 +35,8 @@ pub fn mcls_json(plan: &Plan) -> Value {
         "stats": {
             "grid_nodes": s.grid_nodes, "grid_h": s.grid_h, "boundary_nodes": s.boundary_nodes, "sweeps": s.sweeps,
             "residual": s.residual, "traced": s.traced, "failed_traces": s.failed_traces,
-            "dropped_crossing": s.dropped_crossing, "off_bisector": s.off_bisector,
+            "dropped_crossing": s.dropped_crossing, "dropped_crowded": s.dropped_crowded,
+            "off_bisector": s.off_bisector,
             "matched_pairs": s.matched_pairs, "removed_unmatched": s.removed_unmatched,
             "relax_moves": s.relax_moves, "thinned": s.thinned, "removed_invalid": s.removed_invalid,
         },

@@ -5,8 +5,11 @@
 //! keep-out curve. Where two neighbouring halves end farther apart than twice the road width
 //! (so the roads along them would leave a gap wider than a road), a half is inserted between
 //! them, up to [`MAX_REFINE_DEPTH`] times, while the starts stay far enough apart
-//! (`MIN_START_GAP_PER_MIN_WIDTH`). Streamlines of the harmonic field do not cross; a
-//! numerical near-miss that still crosses its neighbour is dropped (and counted).
+//! (`MIN_START_GAP_PER_MIN_WIDTH`). In a strong fan (a small feature in a large cell: ends
+//! still [`FAN_END_GAP_PER_ROAD`] road widths apart) starts may come twice as close, and the
+//! half is kept only if the field parts it from its neighbours soon (`CROWDED_ROADS`).
+//! Streamlines of the harmonic field do not cross; a numerical near-miss that still crosses
+//! its neighbour is dropped (and counted), and so is a strong fan's half that crowds.
 
 use heapless::Vec;
 
@@ -33,6 +36,26 @@ const _: () = assert!(MAX_REFINE_DEPTH <= u8::MAX as u32);
 /// apart) at the default `min_width`, not three times; on the hole reference slices that took
 /// the zigzag's over-fill from 0.038-0.042 to 0.018-0.029 for 0.6-1 % of coverage.
 const MIN_START_GAP_PER_MIN_WIDTH: f32 = 0.9;
+/// Where neighbouring halves end farther apart than this many road widths, a strong fan, a
+/// half is inserted between starts down to [`FAN_START_GAP_PER_MIN_WIDTH`] narrowest roads
+/// apart, and kept only if it crowds its neighbours for at most [`CROWDED_ROADS`] road widths.
+/// Such fans leave the gaps the meanders fill, and a meander covers less than roads along the
+/// fan (its turns): on the random bench's 200 slices the zigzag's median coverage rose from
+/// 0.9615 to 0.966 and its median overfill from 0.0414 to 0.042, and 34 slices met the bar
+/// instead of 24 (with 3 road widths and no crowding test: 0.968, 0.044, 31; with
+/// [`MIN_START_GAP_PER_MIN_WIDTH`] halved everywhere: 0.973, 0.050, and 2 of 60 met it).
+const FAN_END_GAP_PER_ROAD: f32 = 2.5;
+/// The least gap between two starts a strong fan's half is inserted into
+/// ([`FAN_END_GAP_PER_ROAD`]), in narrowest roads.
+const FAN_START_GAP_PER_MIN_WIDTH: f32 = 0.45;
+/// How far from its start, in road widths, a strong fan's half may run within a narrowest
+/// road of a neighbour: halves from close starts that the field does not part soon (where
+/// field lines run side by side, towards a saddle) lay their roads over each other all along,
+/// and are dropped.
+const CROWDED_ROADS: f32 = 5.0;
+/// The step, in road widths, at which a strong fan's half is sampled from its start for
+/// [`CROWDED_ROADS`].
+const CROWD_STEP_PER_ROAD: f32 = 0.25;
 
 /// Traces the halves of every hole into `halves` (cleared first).
 // Not inlined: its working set stays in a frame of its own, which the planner's other
@@ -79,11 +102,14 @@ pub fn insert(
                 if gap_s <= 0.0 {
                     gap_s += hole.length();
                 }
-                if ea.dist(eb) > MAX_END_GAP_PER_ROAD * w
-                    && gap_s >= MIN_START_GAP_PER_MIN_WIDTH * settings.min_width
-                {
+                let end_gap = ea.dist(eb);
+                let regular = end_gap > MAX_END_GAP_PER_ROAD * w
+                    && gap_s >= MIN_START_GAP_PER_MIN_WIDTH * settings.min_width;
+                let fan = end_gap > FAN_END_GAP_PER_ROAD * w
+                    && gap_s >= FAN_START_GAP_PER_MIN_WIDTH * settings.min_width;
+                if regular || fan {
                     let s = (sa + 0.5 * gap_s) % hole.length();
-                    added |= trace_half(
+                    let new = trace_half(
                         slice,
                         field,
                         i,
@@ -94,6 +120,21 @@ pub fn insert(
                         scratch,
                         stats,
                     )?;
+                    // The half just traced is the last one.
+                    let last = halves.len().saturating_sub(1);
+                    if new
+                        && !regular
+                        && crowds(
+                            halves.points(last),
+                            [halves.points(order[k] as usize), halves.points(next)],
+                            settings.min_width,
+                            w,
+                        )
+                    {
+                        halves[last].alive = false;
+                        stats.dropped_crowded += 1;
+                    }
+                    added |= new;
                 }
             }
             if !added {
@@ -123,6 +164,28 @@ pub fn insert(
     stats.half_points = halves.pool_len() as u32;
     halves.retain_alive();
     Ok(())
+}
+
+/// Whether the half along `pts` runs within `gap` of one of its neighbours' halves for more
+/// than [`CROWDED_ROADS`] road widths `w` from its start (sampled every
+/// [`CROWD_STEP_PER_ROAD`]); only as far as it stays that close, so a half the field parts
+/// from them soon costs a few samples.
+fn crowds(pts: &[Point], neighbours: [&[Point]; 2], gap: f32, w: f32) -> bool {
+    let step = CROWD_STEP_PER_ROAD * w;
+    let length = polyline::length(pts);
+    let mut s = 0.0;
+    while s <= CROWDED_ROADS * w {
+        if s > length {
+            // Crowded to its end, which is no longer than allowed.
+            return false;
+        }
+        let p = polyline::point_at(pts, s);
+        if neighbours.iter().all(|n| polyline::project(n, p).2 >= gap) {
+            return false;
+        }
+        s += step;
+    }
+    true
 }
 
 /// Indices of the halves of hole `i`, sorted by their start parameter.
