@@ -490,25 +490,32 @@ fn a_5_mm_block_in_200_layers_plans_every_layer_to_the_bar() {
     assert_eq!(std::fs::read_dir(out.join("slices")).unwrap().count(), 200);
 }
 
-#[test]
-fn separate_islands_print_one_road_each_with_one_travel_between() {
-    let mut tris = cylinder(1, 0.6).triangles();
-    let mut other = cylinder(2, 0.6).triangles();
+/// Two round blocks ([`cylinder`], 0.6 mm tall) with `channels` channels each, the second
+/// `dx` mm along x from the first, in one STL file, and the command that slices it at 0.3 mm
+/// layers into the returned output folder.
+fn two_blocks(name: &str, channels: [usize; 2], dx: f64) -> (Command, PathBuf) {
+    let mut tris = cylinder(channels[0], 0.6).triangles();
+    let mut other = cylinder(channels[1], 0.6).triangles();
     for t in &mut other {
         for v in t.iter_mut() {
-            v[0] += 10.0;
+            v[0] += dx;
         }
     }
     tris.extend(other);
-    let dir = tmp("islands");
+    let dir = tmp(name);
     let stl = write(&dir, "two.stl", &stl::to_binary(&tris));
     let out = dir.join("out");
-    run_ok(
-        hollowpath()
-            .args(["slice", "--layer-height", "0.3", "--out"])
-            .arg(&out)
-            .arg(&stl),
-    );
+    let mut cmd = hollowpath();
+    cmd.args(["slice", "--layer-height", "0.3", "--out"])
+        .arg(&out)
+        .arg(&stl);
+    (cmd, out)
+}
+
+#[test]
+fn separate_islands_print_one_road_each_with_one_travel_between() {
+    let (mut cmd, out) = two_blocks("islands", [1, 2], 10.0);
+    run_ok(&mut cmd);
     let m = read_json(&out.join("metrics.json"));
     for l in m["layers"].as_array().unwrap() {
         let islands = l["islands"].as_array().unwrap();
@@ -532,23 +539,8 @@ fn separate_islands_print_one_road_each_with_one_travel_between() {
 fn overlapping_solids_are_refused_naming_the_layer_and_the_place() {
     // Two round blocks 8 mm across, their centres 5 mm apart: each is closed, but together
     // they would print the lens where they overlap twice.
-    let mut tris = cylinder(1, 0.6).triangles();
-    let mut other = cylinder(1, 0.6).triangles();
-    for t in &mut other {
-        for v in t.iter_mut() {
-            v[0] += 5.0;
-        }
-    }
-    tris.extend(other);
-    let dir = tmp("overlap");
-    let stl = write(&dir, "two.stl", &stl::to_binary(&tris));
-    let out = dir.join("out");
-    let err = run_err(
-        hollowpath()
-            .args(["slice", "--layer-height", "0.3", "--out"])
-            .arg(&out)
-            .arg(&stl),
-    );
+    let (mut cmd, out) = two_blocks("overlap", [1, 1], 5.0);
+    let err = run_err(&mut cmd);
     assert!(err.contains("layer 0 (z 0.1500 mm)"), "{err}");
     assert!(err.contains("surfaces cross at (2.5"), "{err}");
     assert!(err.contains("boolean union"), "{err}");
