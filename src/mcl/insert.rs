@@ -109,7 +109,7 @@ pub fn insert(
                     && gap_s >= FAN_START_GAP_PER_MIN_WIDTH * settings.min_width;
                 if regular || fan {
                     let s = (sa + 0.5 * gap_s) % hole.length();
-                    let new = trace_half(
+                    let traced = trace_half(
                         slice,
                         field,
                         i,
@@ -119,7 +119,14 @@ pub fn insert(
                         halves,
                         scratch,
                         stats,
-                    )?;
+                    );
+                    // A strong fan's half is a refinement the plan can do without: where the
+                    // buffers have no room for it (nothing of it is kept then), it is left out
+                    // rather than the slice refused.
+                    let new = match traced {
+                        Err(Error::Capacity { .. }) if !regular => false,
+                        other => other?,
+                    };
                     // The half just traced is the last one.
                     let last = halves.len().saturating_sub(1);
                     if new
