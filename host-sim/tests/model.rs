@@ -552,6 +552,18 @@ fn overlapping_solids_are_refused_naming_the_layer_and_the_place() {
         vec![[1.0, 0.2], [2.0, 0.2], [2.0, 0.8], [1.0, 0.8]],
     ];
     assert_eq!(host_sim::model::nest::crossing(&contours), None);
+    // Side by side along a face that each solid cut into a slightly different segment: the
+    // edges cross at a hair's angle, by rounding, not an overlap.
+    let touching = vec![
+        contours[0].clone(),
+        vec![
+            [1.0 + 1e-13, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0 - 1e-13, 1.0],
+        ],
+    ];
+    assert_eq!(host_sim::model::nest::crossing(&touching), None);
     let crossed = vec![
         contours[0].clone(),
         vec![[0.5, 0.5], [1.5, 0.5], [1.5, 1.5], [0.5, 1.5]],

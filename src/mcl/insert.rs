@@ -56,6 +56,9 @@ const CROWDED_ROADS: f32 = 5.0;
 /// The step, in road widths, at which a strong fan's half is sampled from its start for
 /// [`CROWDED_ROADS`].
 const CROWD_STEP_PER_ROAD: f32 = 0.25;
+/// How many starts of a hole's crowded fan halves are remembered, so that a later depth does
+/// not trace them again.
+const CROWDED_MEMO: usize = 32;
 
 /// Traces the halves of every hole into `halves` (cleared first).
 // Not inlined: its working set stays in a frame of its own, which the planner's other
@@ -88,6 +91,9 @@ pub fn insert(
                 stats,
             )?;
         }
+        // Where a strong fan's half was traced and crowded: the start it was traced from
+        // (the same neighbours give the same start, and the same half, at the next depth).
+        let mut crowded: Vec<f32, CROWDED_MEMO> = Vec::new();
         for depth in 1..=MAX_REFINE_DEPTH {
             let order = sorted_halves(halves, i)?;
             let mut added = false;
@@ -107,8 +113,8 @@ pub fn insert(
                     && gap_s >= MIN_START_GAP_PER_MIN_WIDTH * settings.min_width;
                 let fan = end_gap > FAN_END_GAP_PER_ROAD * w
                     && gap_s >= FAN_START_GAP_PER_MIN_WIDTH * settings.min_width;
-                if regular || fan {
-                    let s = (sa + 0.5 * gap_s) % hole.length();
+                let s = (sa + 0.5 * gap_s) % hole.length();
+                if regular || (fan && !crowded.contains(&s)) {
                     let traced = trace_half(
                         slice,
                         field,
@@ -120,9 +126,9 @@ pub fn insert(
                         scratch,
                         stats,
                     );
-                    // A strong fan's half is a refinement the plan can do without: where the
-                    // buffers have no room for it (nothing of it is kept then), it is left out
-                    // rather than the slice refused.
+                    // A strong fan's half is a refinement the plan can do without: where it
+                    // does not fit the buffers (the halves', the pool's, or a trace's: nothing
+                    // of it is kept then), it is left out rather than the slice refused.
                     let new = match traced {
                         Err(Error::Capacity { .. }) if !regular => false,
                         other => other?,
@@ -138,10 +144,16 @@ pub fn insert(
                             w,
                         )
                     {
-                        halves[last].alive = false;
+                        halves.pop_last();
                         stats.dropped_crowded += 1;
+                        // Remembered while there is room; past that, a later depth traces
+                        // it again and drops it again (the same plan, more work).
+                        if !crowded.is_full() {
+                            crowded.push(s).map_err(|_| Limit::Halves.error())?;
+                        }
+                    } else {
+                        added |= new;
                     }
-                    added |= new;
                 }
             }
             if !added {

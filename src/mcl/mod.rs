@@ -165,6 +165,13 @@ impl Halves {
         self.list.push(half).map_err(|_| full(Limit::Halves))
     }
 
+    /// Removes the half pushed last, and its points.
+    pub(crate) fn pop_last(&mut self) {
+        if let Some(h) = self.list.pop() {
+            self.pool.truncate(h.at as usize);
+        }
+    }
+
     /// Drops the halves no longer alive, and their points (the order of the rest kept).
     /// The halves' points lie in the pool in the order of the halves (`push` appends both,
     /// and nothing reorders halves: the slice view lets a field change, not a half move), so

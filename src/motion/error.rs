@@ -13,7 +13,8 @@ use crate::FeatureId;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PrinterError {
-    /// `axes[axis].steps_per_mm` is zero, negative, not finite, or too fine for the step rate.
+    /// `axes[axis].steps_per_mm` is below [`MIN_STEPS_PER_MM`], not finite, or above
+    /// [`MAX_STEPS_PER_MM`].
     StepsPerMm {
         /// 0 = X, 1 = Y, 2 = Z.
         axis: u8,

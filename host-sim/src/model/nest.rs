@@ -83,12 +83,20 @@ pub fn nest(contours: &[Vec<[f64; 2]>]) -> Vec<(usize, Vec<usize>)> {
         .collect()
 }
 
+/// How far, as a fraction of a segment's length, its ends must lie either side of another's
+/// line for the two to cross ([`crossing`]): far above the rounding of a cut's coordinates
+/// (1e-16 of them), far below any real overlap.
+pub const CROSSING_TOLERANCE: f64 = 1e-9;
+
 /// A point where two of `contours` cross, if any do. The contours of a cut through one closed
 /// solid never cross (the nesting above rests on it); two that do come from solids that
-/// overlap, or a surface through itself, which would print twice where they overlap. Only a
-/// proper crossing counts: contours that touch at a point or run along each other (solids side
-/// by side) do not. Segments are binned on a grid of about one cell per segment, so a layer of
-/// many contours costs about as much as reading them.
+/// overlap, which would print twice where they overlap. Only a proper crossing counts, each
+/// segment's ends clearly on either side of the other's line (farther than
+/// [`CROSSING_TOLERANCE`] of its length): contours that touch at a point or run along each
+/// other (solids side by side, a shared face cut into slightly different segments) do not. So
+/// solids whose cuts overlap only through vertices and shared edges (two boxes flush on three
+/// sides) are not caught. Segments are binned on a grid of about one cell per segment, so a
+/// layer of many contours costs about as much as reading them.
 pub fn crossing(contours: &[Vec<[f64; 2]>]) -> Option<[f64; 2]> {
     if contours.len() < 2 {
         return None;
@@ -120,6 +128,13 @@ pub fn crossing(contours: &[Vec<[f64; 2]>]) -> Option<[f64; 2]> {
     let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
     };
+    let length = |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]).hypot(b[1] - a[1]);
+    // Both ends of one segment clearly apart across the other's line: `o` is that line's
+    // length times the distance of the end from it.
+    let apart = |o1: f64, o2: f64, line: f64, seg: f64| {
+        let tol = CROSSING_TOLERANCE * line * seg;
+        (o1 > tol && o2 < -tol) || (o1 < -tol && o2 > tol)
+    };
     let mut keys: Vec<usize> = grid.keys().copied().collect();
     // The first crossing in a repeatable order, for the message.
     keys.sort_unstable();
@@ -134,7 +149,8 @@ pub fn crossing(contours: &[Vec<[f64; 2]>]) -> Option<[f64; 2]> {
                 }
                 let (o1, o2) = (orient(a, b, c), orient(a, b, d));
                 let (o3, o4) = (orient(c, d, a), orient(c, d, b));
-                if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
+                let (ab, cd) = (length(a, b), length(c, d));
+                if apart(o1, o2, ab, cd) && apart(o3, o4, cd, ab) {
                     let t = o3 / (o3 - o4);
                     return Some([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
                 }
