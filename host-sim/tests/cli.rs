@@ -24,6 +24,21 @@ fn run_err(cmd: &mut Command) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Runs `plan SLICE --out OUT --gcode GCODE` expecting it to refuse; returns its stderr.
+fn plan_gcode_err(
+    slice: &str,
+    out: &std::path::Path,
+    gcode: impl AsRef<std::ffi::OsStr>,
+) -> String {
+    run_err(
+        hollowpath()
+            .args(["plan", slice, "--out"])
+            .arg(out)
+            .arg("--gcode")
+            .arg(gcode),
+    )
+}
+
 fn read_json(path: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -278,15 +293,7 @@ fn layer_counts_out_of_range_are_refused_before_any_work() {
 fn a_failed_write_leaves_no_results() {
     let out = tmp("failed-write");
     let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
-    let st = hollowpath()
-        .args(["plan", slice, "--out"])
-        .arg(&out)
-        .arg("--gcode")
-        .arg(out.join("missing-folder/print.gcode"))
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    let err = plan_gcode_err(slice, &out, out.join("missing-folder/print.gcode"));
     assert!(
         err.contains("cannot write") && err.contains("print.gcode"),
         "{err}"
@@ -310,30 +317,26 @@ fn output_naming_the_input_is_refused() {
     std::fs::write(&input, &text).unwrap();
     // The same file by another spelling of its path.
     let other = dir.join(".").join("slice.json");
-    let st = hollowpath()
-        .arg("plan")
-        .arg(&input)
-        .arg("--out")
-        .arg(dir.join("o"))
-        .arg("--gcode")
-        .arg(&other)
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    let err = run_err(
+        hollowpath()
+            .arg("plan")
+            .arg(&input)
+            .arg("--out")
+            .arg(dir.join("o"))
+            .arg("--gcode")
+            .arg(&other),
+    );
     assert!(err.contains("it is the input file"), "{err}");
     assert_eq!(std::fs::read(&input).unwrap(), text);
     assert!(!dir.join("o").join("metrics.json").exists());
     // --out naming a file (the input, here) is a folder wanted, said so.
-    let st = hollowpath()
-        .arg("plan")
-        .arg(&input)
-        .arg("--out")
-        .arg(&input)
-        .output()
-        .unwrap();
-    assert!(!st.status.success());
-    let err = String::from_utf8_lossy(&st.stderr);
+    let err = run_err(
+        hollowpath()
+            .arg("plan")
+            .arg(&input)
+            .arg("--out")
+            .arg(&input),
+    );
     assert!(err.contains("is a file: give a folder"), "{err}");
     assert_eq!(std::fs::read(&input).unwrap(), text);
 }
@@ -365,13 +368,7 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     std::fs::create_dir_all(&folder).unwrap();
     for (gcode, says) in [(&link, "it is a link"), (&folder, "it is a folder")] {
         let out = dir.join("o");
-        let err = run_err(
-            hollowpath()
-                .args(["plan", slice, "--out"])
-                .arg(&out)
-                .arg("--gcode")
-                .arg(gcode),
-        );
+        let err = plan_gcode_err(slice, &out, gcode);
         assert!(err.contains(says), "{err}");
         assert!(!out.exists(), "{says}: the output folder was made");
     }
@@ -382,13 +379,7 @@ fn outputs_that_are_not_ordinary_files_or_collide_are_refused_before_writing() {
     assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
     // One of the run's own files.
     let out = dir.join("same");
-    let err = run_err(
-        hollowpath()
-            .args(["plan", slice, "--out"])
-            .arg(&out)
-            .arg("--gcode")
-            .arg(out.join("metrics.json")),
-    );
+    let err = plan_gcode_err(slice, &out, out.join("metrics.json"));
     assert!(err.contains("twice"), "{err}");
     assert!(!out.join("metrics.json").exists() && !out.join("mcls.json").exists());
     // A port that is an ordinary file.

@@ -224,6 +224,13 @@ fn hollowpath() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hollowpath"))
 }
 
+/// Runs the tool expecting it to refuse; returns its stderr.
+fn run_err(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(!out.status.success(), "it succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("hollowpath-sim-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -413,15 +420,13 @@ fn a_layer_too_long_or_too_large_to_simulate_is_refused_before_it_runs() {
     ] {
         let file = out.join(format!("{name}.json"));
         std::fs::write(&file, printer).unwrap();
-        let o = hollowpath()
-            .args(["simulate", SLICE, "--layers", "1", "--printer"])
-            .arg(&file)
-            .arg("--out")
-            .arg(out.join(name))
-            .output()
-            .unwrap();
-        assert!(!o.status.success());
-        let stderr = String::from_utf8_lossy(&o.stderr);
+        let stderr = run_err(
+            hollowpath()
+                .args(["simulate", SLICE, "--layers", "1", "--printer"])
+                .arg(&file)
+                .arg("--out")
+                .arg(out.join(name)),
+        );
         assert!(
             stderr.contains("to print at the printer's speeds") && stderr.contains(key),
             "{stderr}"
@@ -442,15 +447,13 @@ fn a_layer_too_long_or_too_large_to_simulate_is_refused_before_it_runs() {
         circle.join(", ")
     );
     std::fs::write(out.join("huge.json"), huge).unwrap();
-    let o = hollowpath()
-        .args(["simulate"])
-        .arg(out.join("huge.json"))
-        .args(["--layers", "1", "--out"])
-        .arg(out.join("h"))
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stderr = run_err(
+        hollowpath()
+            .args(["simulate"])
+            .arg(out.join("huge.json"))
+            .args(["--layers", "1", "--out"])
+            .arg(out.join("h")),
+    );
     assert!(
         stderr.contains("M steps of X and Y") && stderr.contains("steps_per_mm"),
         "{stderr}"
@@ -633,15 +636,13 @@ fn simulate_runs_gcode_files_through_the_same_motion_code() {
     // Nothing extruded: refused, naming the file.
     let empty = out.join("empty.gcode");
     std::fs::write(&empty, "G0 X1 Y1\nG1 X2 Y2\n").unwrap();
-    let o = hollowpath()
-        .args(["simulate", SLICE, "--gcode"])
-        .arg(&empty)
-        .arg("--out")
-        .arg(out.join("sim-empty"))
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = run_err(
+        hollowpath()
+            .args(["simulate", SLICE, "--gcode"])
+            .arg(&empty)
+            .arg("--out")
+            .arg(out.join("sim-empty")),
+    );
     assert!(
         err.contains("empty.gcode") && err.contains("deposits"),
         "{err}"
@@ -664,15 +665,13 @@ fn a_slice_the_controller_would_refuse_is_refused_before_simulating() {
     )
     .unwrap();
     let out = dir.join("o");
-    let o = hollowpath()
-        .arg("simulate")
-        .arg(&slice)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = run_err(
+        hollowpath()
+            .arg("simulate")
+            .arg(&slice)
+            .arg("--out")
+            .arg(&out),
+    );
     assert!(
         err.contains("as the controller receives it") && err.contains("hole 0"),
         "{err}"
