@@ -3,9 +3,9 @@
 //! `cargo bench -p host-sim --bench random` runs the same on 200 slices and prints the
 //! distribution. What holds everywhere today is asserted as the bar: no spill, widths within
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
-//! The offset spiral's coverage holds the bar (>= 0.97, every one of the benchmark's 200
-//! slices); its overfill is guarded at 0.05 (the bar, 0.04, is exceeded on 1 of 200), the
-//! zigzag's coverage at 0.85 and its starts at one; the rest is the benchmark's to report.
+//! The offset spiral holds the bar (coverage >= 0.97 and overfill <= 0.04, every one of the
+//! benchmark's 200 slices), the zigzag's coverage is guarded at 0.85 and its starts at one;
+//! the rest is the benchmark's to report.
 
 use host_sim::layers::{layer, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
@@ -52,11 +52,11 @@ fn default_layers_on_random_slices_as_printed() {
             if k == 1 {
                 // The offset spiral: one road, each feature's own material on its keep-out
                 // curve (the zigzag's is off by up to 0.09 on some many-hole slices: not yet
-                // asserted), coverage at the bar, overfill near it.
+                // asserted), coverage and overfill at the bar.
                 assert_eq!(m.starts, 1, "{what}");
                 assert!(m.feature_composition_error < 1e-3, "{what}");
                 assert!(m.coverage >= 0.97, "{what}");
-                assert!(m.overfill <= 0.05, "{what}");
+                assert!(m.overfill <= 0.04, "{what}");
             }
         }
     }
@@ -95,6 +95,23 @@ fn the_offset_spiral_reaches_pockets_behind_a_pinch_in_one_road() {
         assert_eq!(m.starts, 1, "{what}");
         assert!(m.spill < 5e-4, "{what}");
         assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
+    }
+}
+
+/// Where full-road bridge gaps leave some loop no room for its join, only the loops around it
+/// cut half-road gaps (`toolpath::offset`'s tight loops); the rest keep full ones. Before,
+/// every join of such a slice was made again with half-road gaps, whose two bridges overlap
+/// by half a road along their length: these four slices' spirals had overfill 0.029-0.044
+/// (seed 111 the one of the benchmark's 200 over the bar), 0.018-0.026 now, each still one
+/// road.
+#[test]
+fn the_offset_spiral_cuts_half_road_gaps_only_where_loops_are_crowded() {
+    for seed in [111, 77, 115, 172] {
+        let (m, note, what) = measured(seed, 1);
+        assert!(note.contains(", 0 jump(s)"), "{what}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+        assert!(m.coverage >= 0.97 && m.overfill <= 0.027, "{what}");
     }
 }
 

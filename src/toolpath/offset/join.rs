@@ -4,7 +4,7 @@
 
 use super::{
     capacity, wrap, OffsetSpiral, OffsetStats, Site, NONE, PINCH_BRIDGE_ROADS, PINCH_GAP,
-    RELAXED_TOL, STRICT_TOL,
+    RELAXED_TOL, STRICT_TOL, TIGHT_ROUNDS,
 };
 use crate::config::MAX_SITES;
 use crate::geometry::primitives::MinMax;
@@ -31,7 +31,7 @@ impl OffsetSpiral {
         let steps = libm::floorf(len / (0.25 * w)) as usize;
         let tol = if relaxed { RELAXED_TOL } else { STRICT_TOL };
         for (g, k) in self
-            .gaps()
+            .gaps(a, b)
             .iter()
             .flat_map(|&g| (0..steps).map(move |k| (g, k)))
         {
@@ -101,23 +101,81 @@ impl OffsetSpiral {
 
     /// Joins the loops along a spanning tree of their side-by-side adjacency, breadth first
     /// from the wall's first turn.
+    ///
+    /// Full-road gaps take more room on a loop than half-road ones, whose two bridges overlap
+    /// by half a road: where full gaps leave a loop no room for its join (another extrusion
+    /// start), the loops around each loop left unjoined are marked [`tight`](super::Loop) and
+    /// the joins made again, their sites there with half-road gaps only, the rest still with
+    /// full ones, for up to [`TIGHT_ROUNDS`] rounds while starts remain. The way with the
+    /// fewest roads is kept, of those with half-road gaps on fewer loops: full gaps, the
+    /// marked loops, or half-road gaps everywhere (the last resort).
     pub(super) fn join(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
-        // Full-road gaps take more room on a loop than half-road ones: where they leave a
-        // loop no room for its join (another extrusion start), the joins are made again with
-        // half-road gaps only, and the way with fewer roads is kept.
         let before = *stats;
         self.gaps_from = 0;
-        let roads = self.join_with(slice, stats)?;
-        if roads > 1 {
+        for l in self.loops.iter_mut() {
+            l.tight = false;
+        }
+        let full = self.join_with(slice, stats)?;
+        if full <= 1 {
+            return Ok(());
+        }
+        let mut marked = full;
+        for _ in 0..TIGHT_ROUNDS {
+            if marked <= 1 || !self.mark_tight(slice) {
+                break;
+            }
             *stats = before;
-            self.gaps_from = 1;
-            if self.join_with(slice, stats)? >= roads {
-                *stats = before;
-                self.gaps_from = 0;
-                self.join_with(slice, stats)?;
+            marked = self.join_with(slice, stats)?;
+        }
+        if marked <= 1 {
+            return Ok(());
+        }
+        *stats = before;
+        self.gaps_from = 1;
+        let half = self.join_with(slice, stats)?;
+        if half < marked.min(full) {
+            return Ok(());
+        }
+        // Half-road gaps everywhere gave no fewer roads: back to the better of the others.
+        *stats = before;
+        self.gaps_from = 0;
+        if full <= marked {
+            for l in self.loops.iter_mut() {
+                l.tight = false;
             }
         }
+        self.join_with(slice, stats)?;
         Ok(())
+    }
+
+    /// Marks [`tight`](super::Loop) every loop that a road other than the first starts on
+    /// (no join reached it) and every loop that could join it (a level apart or on its level,
+    /// its box within two road widths: a strict, relaxed or pinch site's reach). Whether any
+    /// loop was newly marked.
+    fn mark_tight(&mut self, slice: &Slice) -> bool {
+        let w = slice.settings().road_width;
+        let n = self.loops.len();
+        let first = (0..n)
+            .filter(|&l| self.loops[l].visited() && self.loops[l].parent == NONE)
+            .min_by_key(|&l| self.loops[l].order);
+        let mut any = false;
+        for u in 0..n {
+            let lu = self.loops[u];
+            if !lu.visited() || lu.parent != NONE || Some(u) == first {
+                continue;
+            }
+            for v in 0..n {
+                let lv = &mut self.loops[v];
+                let near = v == u
+                    || (lv.level.abs_diff(lu.level) <= 1
+                        && polyline::boxes_overlap(lu.bbox, lv.bbox, 2.0 * w));
+                if near && !lv.tight {
+                    lv.tight = true;
+                    any = true;
+                }
+            }
+        }
+        any
     }
 
     /// [`join`](Self::join) with the gaps in `self.gaps`; returns how many roads (trees of

@@ -294,6 +294,7 @@ impl OffsetSpiral {
                 order: NONE,
                 tried: 0,
                 optional: length < OPTIONAL_LOOP_ROADS * w,
+                tight: false,
             })
             .map_err(|_| capacity(Limit::ContourLoops))?;
         self.add_runs(start, len)
