@@ -449,11 +449,20 @@ fn stroke_ends(
         // none (it would meet the edge first). None where `q` itself is within `room`.
         let n = left_n * sign;
         let free = features_within(slice, q, n, room);
-        if reach > free {
+        if reach > free - STRIP_TOLERANCE * settings.road_width {
             if let Some(bare) = fan.bare {
                 // Into the strip where no arc runs: up to `bare_room` off the feature, if the
-                // strip beside the new end is bare.
+                // strip beside the new end is bare. Where the band itself stops at the strip
+                // (the feature it meets along the normal, not a neighbour's medial line), its
+                // ground reaches half a road further once the strip is bare.
                 let into = features_within(slice, q, n, bare_room);
+                let hit = features_within(slice, q, n, 0.0);
+                let cut = hit - (settings.road_width + 2.0 * EDGE_MARGIN) - 0.5 * ws;
+                let reach = if reach >= cut - STRIP_TOLERANCE * settings.road_width {
+                    reach + half
+                } else {
+                    reach
+                };
                 let out = reach.fmin(into);
                 if into > free && bare(q + n * out, bare_margin) {
                     return (q + n * out, half);
@@ -467,6 +476,11 @@ fn stroke_ends(
         side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
     ])
 }
+
+/// How near (road widths) a stroke's reach may come to where the keep-out strip begins and
+/// still count as stopped by it: the band there is cut at the strip, which rounding puts a
+/// hair either side of where the stroke's line comes within a road of the feature.
+const STRIP_TOLERANCE: f32 = 1e-3;
 
 /// Most strokes a fanning stretch between two strokes is split into ([`fan_parts`]).
 const FAN_PARTS: usize = 3;
