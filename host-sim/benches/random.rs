@@ -62,7 +62,11 @@ fn run(r: &RandomSlice) -> Outcome {
 }
 
 fn meets(m: &LayerMetrics) -> bool {
-    m.starts == 1 && m.coverage >= 0.97 && m.overfill <= 0.04 && m.spill < 5e-4
+    m.starts == 1
+        && m.coverage >= 0.97
+        && m.overfill <= 0.04
+        && m.spill < 5e-4
+        && m.feature_composition_error < 1e-3
 }
 
 fn stats(name: &str, mut v: Vec<f64>) {
@@ -155,6 +159,12 @@ fn bench() {
         stats("overfill", ok.iter().map(|m| m.overfill).collect());
         stats("spill", ok.iter().map(|m| m.spill).collect());
         stats("starts", ok.iter().map(|m| m.starts as f64).collect());
+        // Each feature's own material where a move starts or ends on its keep-out curve: the
+        // largest half-L1 deviation.
+        stats(
+            "lining",
+            ok.iter().map(|m| m.feature_composition_error).collect(),
+        );
         for (seed, e) in failed.iter().take(5) {
             println!("  seed {seed} failed: {e}");
         }
@@ -171,15 +181,16 @@ fn bench() {
         }
     }
     if let Ok(file) = std::env::var("HOLLOWPATH_CSV") {
-        let mut csv = String::from("seed,layer,starts,coverage,overfill,spill,description\n");
+        let mut csv =
+            String::from("seed,layer,starts,coverage,overfill,spill,lining,description\n");
         for o in &outcomes {
             for (k, m) in o.2.iter().enumerate() {
                 let row = match m {
                     Ok(m) => format!(
-                        "{},{k},{},{:.4},{:.4},{:.5}",
-                        o.0, m.starts, m.coverage, m.overfill, m.spill
+                        "{},{k},{},{:.4},{:.4},{:.5},{:.4}",
+                        o.0, m.starts, m.coverage, m.overfill, m.spill, m.feature_composition_error
                     ),
-                    Err(_) => format!("{},{k},,,,", o.0),
+                    Err(_) => format!("{},{k},,,,,", o.0),
                 };
                 csv.push_str(&format!("{row},\"{}\"\n", o.1));
             }

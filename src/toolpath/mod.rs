@@ -7,6 +7,7 @@
 
 pub mod composition;
 pub mod despike;
+pub mod lining;
 mod meander;
 pub mod moves;
 pub mod offset;

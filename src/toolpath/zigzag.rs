@@ -31,6 +31,7 @@ use emit::{emit_arc, emit_mcl, inner_end};
 use ends::{end_point, even_out, find, open_pieces, Arcs, Ends};
 
 use super::despike::{finish, Despike};
+use super::lining::Lining;
 use core::cell::RefCell;
 use heapless::Vec;
 
@@ -87,7 +88,8 @@ pub fn zigzag(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Zi
     if slice.holes().is_empty() {
         return Err(Error::NoHoles);
     }
-    let mut despiked = Despike::new(sink, slice);
+    let mut lined = Lining::new(sink, slice);
+    let mut despiked = Despike::new(&mut lined, slice);
     let stats = zigzag_into(slice, plan, &mut despiked)?;
     finish(&mut despiked)?;
     Ok(stats)
