@@ -354,7 +354,10 @@ impl OffsetSpiral {
 
     /// A join across a pinch: a loop no other join reaches (and not a small one, which is
     /// left out rather than joined by a bridge), to a reached loop of the same level across a
-    /// channel the distance grid is too coarse to resolve.
+    /// channel the distance grid is too coarse to resolve; or to the reached loop a level
+    /// below, round a loop at a peak of `D` whose turn below runs more than a road off it
+    /// (so no relaxed site faces it), by the same bridge out and back. Either way the last
+    /// resort before a loop becomes a road of its own (an extrusion start).
     ///
     /// Where two features come within a couple of road widths of each other, the region a
     /// turn's road fits in narrows to a channel between them; where the channel is narrower
@@ -376,7 +379,10 @@ impl OffsetSpiral {
         let mut best: Option<(f32, usize, Site)> = None;
         for u in (0..n).filter(|&u| !self.loops[u].visited() && !self.loops[u].optional) {
             let lu = &self.loops[u];
-            for v in (0..n).filter(|&v| self.loops[v].visited() && self.loops[v].level == lu.level)
+            // Of its level across a pinch, or the level below round a small loop at a peak of
+            // `D` that no relaxed site reaches (the turn below runs more than a road off it).
+            let near_level = |l: u16| l == lu.level || l + 1 == lu.level;
+            for v in (0..n).filter(|&v| self.loops[v].visited() && near_level(self.loops[v].level))
             {
                 let lv = &self.loops[v];
                 if !polyline::boxes_overlap(lu.bbox, lv.bbox, reach) {
@@ -398,13 +404,13 @@ impl OffsetSpiral {
                 }
                 let (pu, pv) = (self.at(u, su), self.at(v, sv));
                 let m = libm::ceilf(d / step).fmax(1.0) as usize;
-                // The channel is there at this level: along the bridge the distance to the
-                // features stays within half a road of the loops' own (clear of the roads of
+                // The channel is there: along the bridge the distance to the features stays
+                // between the two loops' own, less and plus half a road (clear of the roads of
                 // the turns below and above), and a road fits, as narrow as a move is laid
                 // where no bend keeps it out of a keep-out band.
-                let level = slice.clearance(pu);
-                let low = (0.5 * (1.0 - NARROWING) * w).fmax(level - 0.5 * w) - 1e-4;
-                let high = level + 0.5 * w + 1e-4;
+                let (cu, cv) = (slice.clearance(pu), slice.clearance(pv));
+                let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
+                let high = cu.fmax(cv) + 0.5 * w + 1e-4;
                 let in_channel = |i: usize| {
                     let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
                     c >= low && c <= high
