@@ -136,14 +136,8 @@ pub fn at_non_finite(text: &str, line: usize, column: usize) -> bool {
     while k < bytes.len() && b"-+,[: \t\r\n".contains(&bytes[k]) {
         k += 1;
     }
-    [
-        &b"NaN"[..],
-        b"nan",
-        b"Infinity",
-        b"infinity",
-        b"inf",
-        b"Inf",
-    ]
-    .iter()
-    .any(|w| bytes[k..].starts_with(w))
+    // `Inf` and `inf` begin `Infinity` and `infinity` too.
+    [&b"NaN"[..], b"nan", b"Inf", b"inf"]
+        .iter()
+        .any(|w| bytes[k..].starts_with(w))
 }

@@ -107,7 +107,7 @@ fn key_before(text: &str, offset: usize) -> Option<String> {
 /// Parses and validates a printer file's text.
 pub fn parse(text: &str) -> Result<PrinterConfig, PrinterFileError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let doc: Value = crate::json_file::parse_unique(text).map_err(|e| {
+    let doc: Value = json_file::parse_unique(text).map_err(|e| {
         let key = key_before(text, json_file::offset_of(text, e.line(), e.column()));
         PrinterFileError::Json(e, key)
     })?;

@@ -84,6 +84,27 @@ fn measured(seed: u64, k: usize) -> (LayerMetrics, String, String) {
     (m, l.note, what)
 }
 
+/// The offset spiral of each of `seeds` is one road, no jump, no spill, coverage at the bar and
+/// overfill at most `overfill`.
+fn spirals_in_one_road(seeds: &[u64], overfill: f64) {
+    for &seed in seeds {
+        let (m, note, what) = measured(seed, 1);
+        assert!(note.contains(", 0 jump(s)"), "{what}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+        assert!(m.coverage >= 0.97 && m.overfill <= overfill, "{what}");
+    }
+}
+
+/// The zigzag of each `(seed, bar)` covers at least `bar`, with no spill.
+fn zigzags_cover(seeds: &[(u64, f64)]) {
+    for &(seed, bar) in seeds {
+        let (m, _, what) = measured(seed, 0);
+        assert!(m.coverage >= bar, "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+    }
+}
+
 /// Where two features come within about one and a half road widths, the region a turn fits in
 /// narrows to a channel thinner than the distance grid's spacing; the traced turn closes on
 /// both sides of it and the pocket beyond became an island loop reached by travel (6 of the 7
@@ -96,13 +117,7 @@ fn measured(seed: u64, k: usize) -> (LayerMetrics, String, String) {
 /// tuned) was two roads, 66 mm of travel apart.
 #[test]
 fn the_offset_spiral_reaches_pockets_behind_a_pinch_and_loops_at_a_peak_in_one_road() {
-    for seed in [222, 164, 227, 5071] {
-        let (m, note, what) = measured(seed, 1);
-        assert!(note.contains(", 0 jump(s)"), "{what}");
-        assert_eq!(m.starts, 1, "{what}");
-        assert!(m.spill < 5e-4, "{what}");
-        assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
-    }
+    spirals_in_one_road(&[222, 164, 227, 5071], 0.04);
 }
 
 /// Where full-road bridge gaps leave some loop no room for its join, only the loops around it
@@ -113,13 +128,7 @@ fn the_offset_spiral_reaches_pockets_behind_a_pinch_and_loops_at_a_peak_in_one_r
 /// road.
 #[test]
 fn the_offset_spiral_cuts_half_road_gaps_only_where_loops_are_crowded() {
-    for seed in [111, 77, 115, 172] {
-        let (m, note, what) = measured(seed, 1);
-        assert!(note.contains(", 0 jump(s)"), "{what}");
-        assert_eq!(m.starts, 1, "{what}");
-        assert!(m.spill < 5e-4, "{what}");
-        assert!(m.coverage >= 0.97 && m.overfill <= 0.027, "{what}");
-    }
+    spirals_in_one_road(&[111, 77, 115, 172], 0.027);
 }
 
 /// The zigzag's moves that cross a hole's tip go round it in the road: a chord across a round
@@ -167,11 +176,7 @@ fn the_zigzag_joins_pieces_apart_across_a_stretch_of_the_curve_they_share() {
 /// 0.917 -> 0.937, 153 0.921.
 #[test]
 fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
-    for (seed, bar) in [(26, 0.93), (153, 0.915)] {
-        let (m, _, what) = measured(seed, 0);
-        assert!(m.coverage >= bar, "{what}");
-        assert!(m.spill < 5e-4, "{what}");
-    }
+    zigzags_cover(&[(26, 0.93), (153, 0.915)]);
 }
 
 /// A meander's stroke runs on into a keep-out strip that no arc lays (to half a road off the
@@ -183,11 +188,7 @@ fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
 /// average, overfill +0.00005).
 #[test]
 fn the_zigzag_strokes_reach_into_bare_strips_they_meet_square() {
-    for (seed, bar) in [(225, 0.961), (179, 0.9617)] {
-        let (m, _, what) = measured(seed, 0);
-        assert!(m.coverage >= bar, "{what}");
-        assert!(m.spill < 5e-4, "{what}");
-    }
+    zigzags_cover(&[(225, 0.961), (179, 0.9617)]);
 }
 
 /// Every plan passes its own check (`verify`), which the CLI runs before it writes anything.

@@ -143,18 +143,16 @@ impl fmt::Display for PrinterError {
                 "axes.{}.max_accel: {value} mm/s^2 is not a positive finite number",
                 axis(a)
             ),
-            PrinterError::Speed { key, value } => {
-                let (min, max) = (super::config::lower_bound(key), super::config::upper_bound(key));
-                match (min, max) {
-                    (Some(min), Some(max)) if value.is_finite() && value > 0.0 => {
-                        write!(f, "{key}: {value} is out of range (at least {min}, at most {max})")
+            PrinterError::Speed { key, value } => match super::config::upper_bound(key) {
+                Some(max) if value.is_finite() && value > 0.0 => {
+                    write!(f, "{key}: {value} is out of range (")?;
+                    if let Some(min) = super::config::lower_bound(key) {
+                        write!(f, "at least {min}, ")?;
                     }
-                    (None, Some(max)) if value.is_finite() && value > 0.0 => {
-                        write!(f, "{key}: {value} is out of range (at most {max})")
-                    }
-                    _ => write!(f, "{key}: {value} is not a positive finite number"),
+                    write!(f, "at most {max})")
                 }
-            }
+                _ => write!(f, "{key}: {value} is not a positive finite number"),
+            },
             PrinterError::Home { axis: a } => write!(
                 f,
                 "home.{}: not a finite number within {} mm",

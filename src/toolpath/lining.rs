@@ -20,7 +20,6 @@
 
 use super::moves::pieces;
 use super::{PathSink, Vertex};
-use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::{Material, Slice};
 
@@ -35,16 +34,26 @@ const BOUND_SLACK: f32 = 1e-3;
 
 /// Halvings locating where a move crosses the lining's edge: to 1/2^20 of the move.
 const CROSSING_STEPS: u32 = 20;
+/// Halvings after the distance's linear guess landed beyond the edge.
+const GUESS_STEPS: u32 = 4;
+
+/// What [`Lining`] knows of the last vertex it passed on.
+#[derive(Clone, Copy)]
+enum Known {
+    /// Measured: the feature nearest it, its distance from it, and whether it was given that
+    /// feature's material here.
+    Measured(usize, f32, bool),
+    /// Not measured: a lower bound of its distance from every feature, beyond the lining's
+    /// edge.
+    Beyond(f32),
+}
 
 /// A [`PathSink`] that lays each feature's lining in its own material (the module's essay).
 pub struct Lining<'a, S: PathSink> {
     inner: &'a mut S,
     slice: &'a Slice,
-    /// What is known of the last vertex passed on: the feature nearest it, its distance
-    /// from it, and whether it was given that feature's material here; where it was not
-    /// measured, a lower bound of its distance from every feature, beyond the lining's edge
-    /// (the feature then `usize::MAX`). `None` before the first.
-    last: Option<(usize, f32, bool)>,
+    /// What is known of the last vertex passed on; `None` before the first.
+    last: Option<Known>,
     /// Vertices put in where a move crosses a lining's edge.
     pub crossings: u32,
     /// Vertices given their lining's material.
@@ -87,24 +96,14 @@ impl<'a, S: PathSink> Lining<'a, S> {
         let edge = self.edge();
         let at = |t: f32| self.slice.clearance_to(f, a.lerp(b, t));
         let (d_in, d_out) = (at(inside), at(outside));
-        if d_out > d_in {
-            let guess = inside + (outside - inside) * ((edge - d_in) / (d_out - d_in));
-            if guess.is_finite() && at(guess) >= edge {
-                // Beyond the edge: halve between it and the inside end a few times.
-                let (mut lo, mut hi) = (inside, guess);
-                for _ in 0..4 {
-                    let mid = 0.5 * (lo + hi);
-                    if at(mid) >= edge {
-                        hi = mid;
-                    } else {
-                        lo = mid;
-                    }
-                }
-                return hi;
-            }
-        }
-        let (mut lo, mut hi) = (inside, outside);
-        for _ in 0..CROSSING_STEPS {
+        let guess = inside + (outside - inside) * ((edge - d_in) / (d_out - d_in));
+        // Beyond the edge, the guess narrows the bracket, and a few halvings go on from it.
+        let ((mut lo, mut hi), steps) = if d_out > d_in && guess.is_finite() && at(guess) >= edge {
+            ((inside, guess), GUESS_STEPS)
+        } else {
+            ((inside, outside), CROSSING_STEPS)
+        };
+        for _ in 0..steps {
             let mid = 0.5 * (lo + hi);
             if at(mid) >= edge {
                 hi = mid;
@@ -146,11 +145,13 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
         // one's stays beyond the lining's edge, less rounding, is beyond it, and so is every
         // point of the move to it. Nothing to do, and nothing measured (a road far from the
         // features passes most of its vertices so).
-        if let (Some((_, d, _)), Some(a)) = (self.last, self.inner.last_vertex()) {
+        if let (Some(Known::Measured(_, d, _) | Known::Beyond(d)), Some(a)) =
+            (self.last, self.inner.last_vertex())
+        {
             let bound = d - a.at.dist(v.at) - BOUND_SLACK * self.slice.settings().road_width;
             if bound >= edge {
                 self.inner.push_vertex(v)?;
-                self.last = Some((usize::MAX, bound, false));
+                self.last = Some(Known::Beyond(bound));
                 return Ok(());
             }
         }
@@ -166,24 +167,23 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
         if let (true, Some(a)) = (c.deposit, self.inner.last_vertex()) {
             let len = a.at.dist(c.at);
             let (fa, da, recoloured_a) = match self.last {
+                Some(Known::Measured(f, d, recoloured)) => (Some(f), d, recoloured),
                 // Only a bound of `a`'s distance, beyond the lining's edge: enough where the
                 // move can dip into no lining, else measured.
-                Some((usize::MAX, d, _)) if !in_c && d + dc - len >= 2.0 * edge => {
-                    (usize::MAX, d, false)
-                }
-                Some(x) if x.0 != usize::MAX => x,
+                Some(Known::Beyond(d)) if !in_c && d + dc - len >= 2.0 * edge => (None, d, false),
                 _ => {
                     let (f, d) = self.nearest(a.at);
-                    (f, d, false)
+                    (Some(f), d, false)
                 }
             };
-            let in_a = da < edge;
-            match (in_a, in_c) {
+            // The feature whose lining `a` lies in, if it does (then it was measured).
+            let lining_a = fa.filter(|_| da < edge);
+            match (lining_a, in_c) {
                 // Out of a lining in its material: blend from where the move leaves it, where
                 // `a` was given that material here or a piece but the first would end within
                 // the lining. (An arc's or an MCL's end on the keep-out curve, left straight
                 // across it, has only its first piece there, which holds its material.)
-                (true, false)
+                (Some(fa), false)
                     if a.material == self.material(fa)
                         && c.material != a.material
                         && len > 0.0
@@ -195,7 +195,7 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
                     }
                 }
                 // Into a lining in its material: blend up to where the move enters it.
-                (false, true)
+                (None, true)
                     if a.material != c.material
                         && len > 0.0
                         && (recoloured_c || self.pieces_within(&a, &c, dc, da)) =>
@@ -208,14 +208,14 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
                 // Both outside: the move may still dip past a lining's edge between them (a
                 // chord sagging past the curve, laid narrower). The distance falls by at most
                 // the way gone, so only a move longer than both ends' surplus can.
-                (false, false) if da + dc - len < 2.0 * edge => {
+                (None, false) if da + dc - len < 2.0 * edge => {
                     if let Some((t, p)) = self.slice.segment_dip(a.at, c.at, edge) {
                         let (f, d) = self.nearest(p);
                         if d < edge && t > 0.0 && t < 1.0 {
                             let t1 = self.crossing(f, a.at, c.at, t, 0.0);
                             let t2 = self.crossing(f, a.at, c.at, t, 1.0);
-                            self.put(&a, &c, t1.fmin(t), f)?;
-                            self.put(&a, &c, t2.fmax(t), f)?;
+                            self.put(&a, &c, t1, f)?;
+                            self.put(&a, &c, t2, f)?;
                         }
                     }
                 }
@@ -223,7 +223,7 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
             }
         }
         self.inner.push_vertex(c)?;
-        self.last = Some((fc, dc, recoloured_c));
+        self.last = Some(Known::Measured(fc, dc, recoloured_c));
         Ok(())
     }
 

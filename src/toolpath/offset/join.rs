@@ -112,9 +112,7 @@ impl OffsetSpiral {
     pub(super) fn join(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
         let before = *stats;
         self.gaps_from = 0;
-        for l in self.loops.iter_mut() {
-            l.tight = false;
-        }
+        self.clear_tight();
         let full = self.join_with(slice, stats)?;
         if full <= 1 {
             return Ok(());
@@ -140,12 +138,17 @@ impl OffsetSpiral {
         *stats = before;
         self.gaps_from = 0;
         if full <= marked {
-            for l in self.loops.iter_mut() {
-                l.tight = false;
-            }
+            self.clear_tight();
         }
         self.join_with(slice, stats)?;
         Ok(())
+    }
+
+    /// No loop [`tight`](super::Loop).
+    fn clear_tight(&mut self) {
+        for l in self.loops.iter_mut() {
+            l.tight = false;
+        }
     }
 
     /// Marks [`tight`](super::Loop) every loop that a road other than the first starts on
