@@ -58,6 +58,12 @@ pub(super) fn emit_mcl(
                 (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
             })
     };
+    // The curve of the spliced end a stop leads to or from, for the extra stops next to it.
+    let near_spliced = |step: usize, k: usize, stops: usize| match step {
+        0 if k > 0 => spliced[0],
+        _ if step + 1 == n && k + 1 < stops => spliced[1],
+        _ => None,
+    };
     let mut strokes = Strokes::new();
     for step in 0..n {
         let i = order(step);
@@ -99,6 +105,17 @@ pub(super) fn emit_mcl(
                 let (share, _, farther) = shared_strip(slice);
                 at = off_curve(slice, c, at, farther);
                 width = share;
+            } else if let Some(c) = near_spliced(step, k, stops.len()) {
+                // The stops just before an end on a splice's inner arc run beside the outer
+                // arc, which lays the strip's half nearer the feature (up to `w / 2 - margin`
+                // off it): they keep their edge out of that half, or are left out where that
+                // leaves less than the narrowest road (an MCL arriving aslant: the road runs
+                // straight on to the end), instead of laying a lens over the outer arc.
+                let room = 2.0 * (slice.clearance_to(c, at) - (0.5 * w - EDGE_MARGIN));
+                if room < slice.settings().min_width {
+                    continue;
+                }
+                width = width.fmin(room);
             }
             let v = Vertex {
                 at,
@@ -357,18 +374,27 @@ pub(super) fn emit_arc(
             // ends: the MCLs into them run on the inner line there, as wide as their bands.
             let total = inner.last().map_or(0.0, |&(_, along)| along);
             let lead = SPLICE_LEAD * slice.settings().road_width;
+            // Where the shared stretch reaches the arc's own end, the MCL there runs straight
+            // to (or from) the shared line: a full-width vertex on the curve at the MCL's end
+            // would be a move of no length at a road's width into the narrow MCL end, a disc
+            // laid over the neighbouring road (a blob, 0.3-0.5 w² each, tens a slice).
+            let (from_start, to_end) = (x - lead <= 0.0, y + lead >= total);
             let (x, y) = ((x - lead).fmax(0.0), (y + lead).fmin(total));
             let point = |along: f32| curve.at(if forward { s0 + along } else { s0 - along });
             let mut state = 0;
             for &(p, along) in between {
                 if state == 0 && along > x {
-                    emit_move(slice, sink, vertex(point(x), w))?;
+                    if !from_start {
+                        emit_move(slice, sink, vertex(point(x), w))?;
+                    }
                     emit_move(slice, sink, shared(point(x), true))?;
                     state = 1;
                 }
                 if state == 1 && along >= y {
                     emit_move(slice, sink, shared(point(y), true))?;
-                    emit_move(slice, sink, vertex(point(y), w))?;
+                    if !to_end {
+                        emit_move(slice, sink, vertex(point(y), w))?;
+                    }
                     state = 2;
                 }
                 emit_move(
@@ -382,13 +408,17 @@ pub(super) fn emit_arc(
                 )?;
             }
             if state == 0 {
-                emit_move(slice, sink, vertex(point(x), w))?;
+                if !from_start {
+                    emit_move(slice, sink, vertex(point(x), w))?;
+                }
                 emit_move(slice, sink, shared(point(x), true))?;
                 state = 1;
             }
             if state == 1 {
                 emit_move(slice, sink, shared(point(y), true))?;
-                emit_move(slice, sink, vertex(point(y), w))?;
+                if !to_end {
+                    emit_move(slice, sink, vertex(point(y), w))?;
+                }
             }
         }
     }
