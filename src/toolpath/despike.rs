@@ -7,8 +7,12 @@
 //! valves shut and reopen there, and the bead swells on the doubled piece. [`Despike`] sits
 //! between a layer and its sink, one vertex behind, and drops such a vertex: where the moves
 //! `a -> b -> c` both deposit, turn by more than [`SPIKE_COS`] and the shorter of the two is
-//! under [`SPIKE_SHARE`] of the road width, `b` goes and the road runs `a -> c`, along the
-//! line it had already covered. A chain of spikes goes one vertex at a time.
+//! under [`SPIKE_SHARE`] of the road width (of the road's own width at `a` and `c` where that
+//! is wider: a reversal inside a wide road lays almost nothing the road does not, and what it
+//! lays past the road's edge it lays over the neighbour's), `b` goes and the road runs
+//! `a -> c`, along the line it had already covered. A chain of spikes goes one vertex at a
+//! time, and a move of no length at the width and mix of the move before goes at once (it
+//! lays nothing new, and would hide the spike behind it).
 //!
 //! The move `a -> c` is new: it tapers from `a`'s width to `c`'s where `a -> b` was laid at
 //! `b`'s, and it cuts the corner `b` turned. Next to a feature's corner that can bring it
@@ -22,7 +26,8 @@ use crate::{Error, Limit, Slice};
 
 /// A turn counts as a reversal below this cosine (about 172 degrees).
 pub const SPIKE_COS: f32 = -0.99;
-/// A reversal is a spike where its shorter leg is under this share of the road width.
+/// A reversal is a spike where its shorter leg is under this share of the road width, or of
+/// the road's width either side of it where that is wider.
 pub const SPIKE_SHARE: f32 = 0.5;
 
 /// A [`PathSink`] that drops spikes before they reach `inner` (the module's essay); call
@@ -64,7 +69,8 @@ impl<'a, S: PathSink> Despike<'a, S> {
             return false;
         }
         u.dot(v) < SPIKE_COS * lu * lv
-            && lu.fmin(lv) < SPIKE_SHARE * self.slice.settings().road_width
+            && lu.fmin(lv)
+                < SPIKE_SHARE * self.slice.settings().road_width.fmax(a.width.fmin(c.width))
             && !self.slice.segment_crosses_feature(a.at, c.at)
             && dip(self.slice, *a, *c).is_none()
     }
@@ -73,6 +79,17 @@ impl<'a, S: PathSink> Despike<'a, S> {
 impl<S: PathSink> PathSink for Despike<'_, S> {
     fn push_vertex(&mut self, c: Vertex) -> Result<(), Vertex> {
         if let Some(b) = self.pending {
+            if c.deposit
+                && b.deposit
+                && c.at == b.at
+                && c.width == b.width
+                && c.material == b.material
+            {
+                // A move of no length at the width and mix of the move before: it lays
+                // nothing that move's end did not, and would hide a spike behind it.
+                self.dropped += 1;
+                return Ok(());
+            }
             if let Some(a) = self.inner.last_vertex() {
                 if self.is_spike(&a, &b, &c) {
                     self.dropped += 1;
