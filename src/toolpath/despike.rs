@@ -7,12 +7,12 @@
 //! valves shut and reopen there, and the bead swells on the doubled piece. [`Despike`] sits
 //! between a layer and its sink, one vertex behind, and drops such a vertex: where the moves
 //! `a -> b -> c` both deposit, turn by more than [`SPIKE_COS`] and the shorter of the two is
-//! under [`SPIKE_SHARE`] of the road width (of the road's own width at `a` and `c` where that
-//! is wider: a reversal inside a wide road lays almost nothing the road does not, and what it
-//! lays past the road's edge it lays over the neighbour's), `b` goes and the road runs
-//! `a -> c`, along the line it had already covered. A chain of spikes goes one vertex at a
-//! time, and a move of no length at the width and mix of the move before goes at once (it
-//! lays nothing new, and would hide the spike behind it).
+//! under [`SPIKE_SHARE`] of the road width, `b` goes and the road runs `a -> c`, along the
+//! line it had already covered. A chain of spikes goes one vertex at a time, and a move of no
+//! length at the width and mix of the move before goes at once (it lays nothing new, and
+//! would hide the spike behind it). Measuring the legs against a wide road's own width
+//! instead (a reversal inside a wide road laps a ring over it) took 0.008 and 0.020 of
+//! coverage from the four_holes and three_holes zigzags: it also dropped turns that fill.
 //!
 //! The move `a -> c` is new: it tapers from `a`'s width to `c`'s where `a -> b` was laid at
 //! `b`'s, and it cuts the corner `b` turned. Next to a feature's corner that can bring it
@@ -26,8 +26,7 @@ use crate::{Error, Limit, Slice};
 
 /// A turn counts as a reversal below this cosine (about 172 degrees).
 pub const SPIKE_COS: f32 = -0.99;
-/// A reversal is a spike where its shorter leg is under this share of the road width, or of
-/// the road's width either side of it where that is wider.
+/// A reversal is a spike where its shorter leg is under this share of the road width.
 pub const SPIKE_SHARE: f32 = 0.5;
 
 /// A [`PathSink`] that drops spikes before they reach `inner` (the module's essay); call
@@ -69,8 +68,7 @@ impl<'a, S: PathSink> Despike<'a, S> {
             return false;
         }
         u.dot(v) < SPIKE_COS * lu * lv
-            && lu.fmin(lv)
-                < SPIKE_SHARE * self.slice.settings().road_width.fmax(a.width.fmin(c.width))
+            && lu.fmin(lv) < SPIKE_SHARE * self.slice.settings().road_width
             && !self.slice.segment_crosses_feature(a.at, c.at)
             && dip(self.slice, *a, *c).is_none()
     }
