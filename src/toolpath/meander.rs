@@ -514,31 +514,6 @@ fn fan_parts(slice: &Slice, dir: Point, ends: Option<[(Point, f32); 2]>, state: 
     }
 }
 
-/// The gap `gap` of a band on the side of `p` the unit normal `n` points to ([`band_at`]),
-/// grown by a road where the band stops at a feature's keep-out strip that no arc lays
-/// ([`Fan::bare`]): the road's edge then comes half a road off the feature, as a stroke's end
-/// does there ([`stroke_ends`]), instead of leaving the strip's road bare beside it (an MCL
-/// that runs along a wall whose stretch the pairing leaves without an arc).
-fn bare_side(slice: &Slice, fan: &Fan<'_>, p: Point, n: Point, gap: f32) -> f32 {
-    let Some(bare) = fan.bare else {
-        return gap;
-    };
-    let w = slice.settings().road_width;
-    let strip = w + 2.0 * EDGE_MARGIN;
-    let tolerance = STRIP_TOLERANCE * w;
-    // No feature is nearer than the clearance along any ray: a band whose side stops well
-    // short of the strip that far away was stopped by a neighbouring MCL.
-    if 0.5 * gap + strip + tolerance < fan.clearance(slice, p) {
-        return gap;
-    }
-    let hit = features_within(slice, p, n, 0.0);
-    if 0.5 * gap >= hit - strip - tolerance && bare(p + n * (hit - 0.5 * w), w) {
-        gap + w
-    } else {
-        gap
-    }
-}
-
 /// Where the road along MCL polyline `pts` passes vertex `j`, and its width there.
 ///
 /// The road covers its share of the gaps to the nearest neighbouring road on either side
@@ -564,16 +539,11 @@ pub(super) fn road_at(
     let Some((left_n, left, right)) = band else {
         return (p, w);
     };
-    if end {
-        let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
-        return (p, width.fmin(w - 2.0 * EDGE_MARGIN));
-    }
-    let (left, right) = (
-        bare_side(slice, fan, p, left_n, left),
-        bare_side(slice, fan, p, left_n * -1.0, right),
-    );
     let width = (0.5 * (left + right)).clamp(settings.min_width, settings.max_width);
     let cap = |q: Point| 2.0 * (fan.clearance(slice, q) - EDGE_MARGIN);
+    if end {
+        return (p, width.fmin(w - 2.0 * EDGE_MARGIN));
+    }
     let shifted = p - left_n * (0.25 * (right - left)).clamp(-0.25 * width, 0.25 * width);
     // The shift toward the wider gap may bring the road nearer a feature than half the
     // narrowest road: then it stays on its MCL.
