@@ -8,7 +8,7 @@
 //! the zigzag's coverage is guarded at 0.85 and its starts at one; the rest is the
 //! benchmark's to report.
 
-use host_sim::layers::{layer, Fill};
+use host_sim::layers::{layer, Fill, Layer};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
 use host_sim::random_slice::{draw_many, Draw};
 
@@ -66,9 +66,9 @@ fn default_layers_on_random_slices_as_printed() {
 }
 
 /// Layer `k` (0 the zigzag, 1 the offset spiral) of random slice `seed`, measured as
-/// printed: its metrics, its note, and both with the slice's description, to print and to
-/// name a failure.
-fn measured(seed: u64, k: usize) -> (LayerMetrics, String, String) {
+/// printed: its metrics, the layer, and the metrics and the layer's note with the slice's
+/// description, to print and to name a failure.
+fn measured(seed: u64, k: usize) -> (LayerMetrics, Layer, String) {
     let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
     let slice = &r.slice;
     let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
@@ -81,15 +81,15 @@ fn measured(seed: u64, k: usize) -> (LayerMetrics, String, String) {
     let m = meter.measure(l.pattern, &l.path, &|_| None);
     let what = format!("{} ({}): {m:?}", r.description, l.note);
     println!("{what}");
-    (m, l.note, what)
+    (m, l, what)
 }
 
 /// The offset spiral of each of `seeds` is one road, no jump, no spill, coverage at the bar and
 /// overfill at most `overfill`.
 fn spirals_in_one_road(seeds: &[u64], overfill: f64) {
     for &seed in seeds {
-        let (m, note, what) = measured(seed, 1);
-        assert!(note.contains(", 0 jump(s)"), "{what}");
+        let (m, l, what) = measured(seed, 1);
+        assert!(l.note.contains(", 0 jump(s)"), "{what}");
         assert_eq!(m.starts, 1, "{what}");
         assert!(m.spill < 5e-4, "{what}");
         assert!(m.coverage >= 0.97 && m.overfill <= overfill, "{what}");
@@ -115,16 +115,13 @@ fn zigzags_cover(seeds: &[(u64, f64)]) {
 #[test]
 fn the_zigzag_lays_no_disc_where_a_splice_meets_its_arcs_end() {
     for seed in [3, 7, 8] {
-        let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
-        let planner = host_sim::plan(&r.slice).unwrap_or_else(|e| panic!("{e}"));
-        let l = layer(&r.slice, planner.last_plan(), Fill::Offset, 0).unwrap();
+        let (m, l, what) = measured(seed, 0);
         let discs = l
             .path
             .windows(2)
             .filter(|m| m[1].deposit && m[0].at == m[1].at && m[1].width > 1.01 * m[0].width)
             .count();
-        assert_eq!(discs, 0, "{}", r.description);
-        let (m, _, what) = measured(seed, 0);
+        assert_eq!(discs, 0, "{what}");
         assert!(m.coverage >= 0.969 && m.overfill <= 0.045, "{what}");
     }
 }
@@ -180,10 +177,10 @@ fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
 #[test]
 fn the_zigzag_joins_pieces_apart_across_a_stretch_of_the_curve_they_share() {
     for seed in [105, 230, 231] {
-        let (m, note, what) = measured(seed, 0);
+        let (m, l, what) = measured(seed, 0);
         assert_eq!(m.starts, 1, "{what}");
         assert!(
-            note.contains("1 piece(s)") && !note.contains("bridging 0"),
+            l.note.contains("1 piece(s)") && !l.note.contains("bridging 0"),
             "{what}"
         );
         assert!(m.spill < 5e-4, "{what}");

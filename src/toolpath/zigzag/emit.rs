@@ -58,12 +58,6 @@ pub(super) fn emit_mcl(
                 (pts[e].lerp(pts[q], t), pts[q] - pts[e], at_cum, false)
             })
     };
-    // The curve of the spliced end a stop leads to or from, for the extra stops next to it.
-    let near_spliced = |step: usize, k: usize, stops: usize| match step {
-        0 if k > 0 => spliced[0],
-        _ if step + 1 == n && k + 1 < stops => spliced[1],
-        _ => None,
-    };
     let mut strokes = Strokes::new();
     for step in 0..n {
         let i = order(step);
@@ -95,27 +89,33 @@ pub(super) fn emit_mcl(
             }
             strokes.in_meander = false;
             let (mut at, mut width) = road_at(slice, fan, p, is_end, band);
-            // An end into a splice's inner arc lies on its line, a quarter road off the curve.
-            let shifted = match step {
-                0 if k == 0 => spliced[0],
-                _ if step + 1 == n && k + 1 == stops.len() => spliced[1],
+            // Next to an end into a splice's inner arc (the curve, and whether this stop is
+            // the end itself or one of the extra stops beside it).
+            let beside = match step {
+                0 => spliced[0].map(|c| (c, k == 0)),
+                _ if step + 1 == n => spliced[1].map(|c| (c, k + 1 == stops.len())),
                 _ => None,
             };
-            if let Some(c) = shifted {
-                let (share, _, farther) = shared_strip(slice);
-                at = off_curve(slice, c, at, farther);
-                width = share;
-            } else if let Some(c) = near_spliced(step, k, stops.len()) {
-                // The stops just before an end on a splice's inner arc run beside the outer
-                // arc, which lays the strip's half nearer the feature (up to `w / 2 - margin`
-                // off it): they keep their edge out of that half, or are left out where that
-                // leaves less than the narrowest road (an MCL arriving aslant: the road runs
-                // straight on to the end), instead of laying a lens over the outer arc.
-                let room = 2.0 * (slice.clearance_to(c, at) - (0.5 * w - EDGE_MARGIN));
-                if room < slice.settings().min_width {
-                    continue;
+            match beside {
+                // The end lies on the inner arc's line, a quarter road off the curve.
+                Some((c, true)) => {
+                    let (share, _, farther) = shared_strip(slice);
+                    at = off_curve(slice, c, at, farther);
+                    width = share;
                 }
-                width = width.fmin(room);
+                // The stops just before it run beside the outer arc, which lays the strip's
+                // half nearer the feature: they keep their edge out of that half, or are left
+                // out where that leaves less than the narrowest road (an MCL arriving aslant:
+                // the road runs straight on to the end), instead of laying a lens over the
+                // outer arc.
+                Some((c, false)) => {
+                    let room = 2.0 * (slice.clearance_to(c, at) - (0.5 * w - EDGE_MARGIN));
+                    if room < slice.settings().min_width {
+                        continue;
+                    }
+                    width = width.fmin(room);
+                }
+                None => {}
             }
             let v = Vertex {
                 at,
@@ -377,12 +377,15 @@ pub(super) fn emit_arc(
             // Where the shared stretch reaches the arc's own end, the MCL there runs straight
             // to (or from) the shared line: a full-width vertex on the curve at the MCL's end
             // would be a move of no length at a road's width into the narrow MCL end, a disc
-            // laid over the neighbouring road (a blob, 0.3-0.5 w² each, tens a slice).
+            // laid over the neighbouring road (53 of them on random slice 3).
             let (from_start, to_end) = (x - lead <= 0.0, y + lead >= total);
             let (x, y) = ((x - lead).fmax(0.0), (y + lead).fmin(total));
             let point = |along: f32| curve.at(if forward { s0 + along } else { s0 - along });
             let mut state = 0;
-            for &(p, along) in between {
+            // The curve's points, then past its end (`None`): a shared stretch reaching beyond
+            // the last point is entered and left there.
+            for item in between.map(Some).chain(core::iter::once(None)) {
+                let along = item.map_or(f32::INFINITY, |&(_, along)| along);
                 if state == 0 && along > x {
                     if !from_start {
                         emit_move(slice, sink, vertex(point(x), w))?;
@@ -397,27 +400,13 @@ pub(super) fn emit_arc(
                     }
                     state = 2;
                 }
-                emit_move(
-                    slice,
-                    sink,
-                    if state == 1 {
+                if let Some(&(p, _)) = item {
+                    let v = if state == 1 {
                         shared(p, true)
                     } else {
                         vertex(p, w)
-                    },
-                )?;
-            }
-            if state == 0 {
-                if !from_start {
-                    emit_move(slice, sink, vertex(point(x), w))?;
-                }
-                emit_move(slice, sink, shared(point(x), true))?;
-                state = 1;
-            }
-            if state == 1 {
-                emit_move(slice, sink, shared(point(y), true))?;
-                if !to_end {
-                    emit_move(slice, sink, vertex(point(y), w))?;
+                    };
+                    emit_move(slice, sink, v)?;
                 }
             }
         }
