@@ -239,6 +239,14 @@ pub(crate) fn sorted_all(halves: &[Half]) -> Vec<u16, MAX_HALVES> {
 }
 
 /// Traces one half from arc length `s` of `hole`; returns whether a half was added.
+///
+/// No half starts on the side of a notch narrower than a road (a star's notch, a slit):
+/// the keep-out curve has no point of its own there ([`KeepOut::reachable`]), and the point
+/// it is pulled to lies at the notch's mouth or round a neighbouring spike's tip, where the
+/// zigzag's arcs to the ends beside it then lay the same strip twice (a whole road along a
+/// star's spike). On the random bench's 200 slices the zigzag's median overfill fell from
+/// 0.0392 to 0.0385 and its median coverage rose from 0.9692 to 0.9702: 74 met the bar
+/// instead of 63. The reference slices' plans are unchanged (their holes have no such notch).
 #[allow(clippy::too_many_arguments)]
 fn trace_half(
     slice: &Slice,
@@ -252,7 +260,10 @@ fn trace_half(
     stats: &mut PlanStats,
 ) -> Result<bool, Error> {
     let (_, normal) = hole.base(s);
-    let start = hole.at(s);
+    let Some(start) = hole.reachable(s) else {
+        stats.failed_traces += 1;
+        return Ok(false);
+    };
     if !slice.is_printable(start, 1e-4) || slice.nearest_holes(start).0 != i {
         stats.failed_traces += 1;
         return Ok(false);
