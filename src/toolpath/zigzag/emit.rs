@@ -318,6 +318,13 @@ pub(super) fn off_curve(slice: &Slice, c: usize, p: Point, delta: f32) -> Point 
 /// bands there, and a full-width outer arc beside them doubled a lens a road across at each.
 /// Where the curve runs into a notch of its feature and back out along itself, the arc cuts
 /// across the notch's mouth instead ([`keep_out::skip_folds`]).
+///
+/// Near either end a full-width arc is no wider than keeps its round end within the MCL's
+/// share of the stretch beyond, half the way to the next end outside the arc: where MCL ends
+/// crowd closer than a road (a strong fan round a small hole), a road-wide arc laid a crescent
+/// over the next MCL's road at every turn. On the random bench's 200 slices the zigzag's
+/// median overfill fell from 0.0373 to 0.0343, coverage unchanged (the strip the arc leaves
+/// is within half a road of the feature), and 97 slices met the bar instead of 83.
 pub(super) fn emit_arc(
     slice: &Slice,
     ends: &Ends,
@@ -373,10 +380,37 @@ pub(super) fn emit_arc(
     };
     keep_out::skip_folds(&mut inner, slice.settings().road_width, fits);
     let between = inner.iter().skip(1).take(inner.len().saturating_sub(2));
+    // How far along the curve the ends next to the arc's ends lie, outside the arc: the MCLs
+    // there own half of that stretch each.
+    let outside_gap = |id: u16, away_forward: bool| {
+        let (lo, hi) = ends.ranges[c];
+        let (lo, n) = (lo as usize, (hi - lo) as usize);
+        let k = ends.slot[id as usize] as usize;
+        let j = if away_forward {
+            (k + 1) % n
+        } else {
+            (k + n - 1) % n
+        };
+        let other = ends.order[lo + j];
+        let (a, b) = (ends.param[id as usize], ends.param[other as usize]);
+        if away_forward {
+            curve.wrap(b - a)
+        } else {
+            curve.wrap(a - b)
+        }
+    };
+    let (gap0, gap1) = (outside_gap(from, !forward), outside_gap(to, forward));
+    let total = inner.last().map_or(0.0, |&(_, along)| along);
+    let min_width = slice.settings().min_width;
+    let capped = |along: f32| {
+        w.fmin(2.0 * along + gap0)
+            .fmin(2.0 * (total - along) + gap1)
+            .fmax(min_width)
+    };
     match role {
         Arc::Plain => {
-            for &(p, _) in between {
-                emit_move(slice, sink, vertex(p, w))?;
+            for &(p, along) in between {
+                emit_move(slice, sink, vertex(p, capped(along)))?;
             }
         }
         Arc::Inner => {
@@ -387,7 +421,6 @@ pub(super) fn emit_arc(
         Arc::Outer(x, y) => {
             // The shared stretch starts and ends a little before and after the inner arc's
             // ends: the MCLs into them run on the inner line there, as wide as their bands.
-            let total = inner.last().map_or(0.0, |&(_, along)| along);
             let lead = SPLICE_LEAD * slice.settings().road_width;
             // Where the shared stretch reaches the arc's own end, the MCL there runs straight
             // to (or from) the shared line: a full-width vertex on the curve at the MCL's end
@@ -403,7 +436,7 @@ pub(super) fn emit_arc(
                 let along = item.map_or(f32::INFINITY, |&(_, along)| along);
                 if state == 0 && along > x {
                     if !from_start {
-                        emit_move(slice, sink, vertex(point(x), w))?;
+                        emit_move(slice, sink, vertex(point(x), capped(x)))?;
                     }
                     emit_move(slice, sink, shared(point(x), true))?;
                     state = 1;
@@ -411,15 +444,15 @@ pub(super) fn emit_arc(
                 if state == 1 && along >= y {
                     emit_move(slice, sink, shared(point(y), true))?;
                     if !to_end {
-                        emit_move(slice, sink, vertex(point(y), w))?;
+                        emit_move(slice, sink, vertex(point(y), capped(y)))?;
                     }
                     state = 2;
                 }
-                if let Some(&(p, _)) = item {
+                if let Some(&(p, along)) = item {
                     let v = if state == 1 {
                         shared(p, true)
                     } else {
-                        vertex(p, w)
+                        vertex(p, capped(along))
                     };
                     emit_move(slice, sink, v)?;
                 }
