@@ -155,7 +155,19 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
                 return Ok(());
             }
         }
-        let (fc, dc) = self.nearest(v.at);
+        let (mut fc, mut dc) = self.nearest(v.at);
+        // A vertex within the linings of two features (a pinch narrower than two roads) that
+        // already holds the farther one's material keeps it: it lies on that feature's curve
+        // (an arc along it, narrowed through the pinch), which is lined with it. Recoloured
+        // to the nearer feature's, an arc of unseen slice 5134 laid three vertices on its
+        // curve in the other hole's material.
+        if dc < edge && v.material != self.material(fc) {
+            if let Some(k) = (0..=self.slice.holes().len()).find(|&k| {
+                k != fc && self.material(k) == v.material && self.slice.clearance_to(k, v.at) < edge
+            }) {
+                (fc, dc) = (k, self.slice.clearance_to(k, v.at));
+            }
+        }
         let mut c = v;
         let own = self.material(fc);
         let in_c = dc < edge;
@@ -333,5 +345,34 @@ mod tests {
         let (out, crossings, _) = run(&[v(-0.5, 1.25, BLEND), v(0.5, 1.2, HOLE)]);
         assert_eq!(crossings, 1, "{out:?}");
         lined(&out);
+    }
+
+    /// Two holes 0.3 mm apart, a pinch narrower than a road: a point 0.2 mm off the left one
+    /// (on its keep-out curve) is 0.1 mm off the right one. An arc along the left hole's
+    /// curve through the pinch lays it in the left hole's material, and keeps it there; only a
+    /// vertex in neither hole's material takes the nearer one's.
+    #[test]
+    fn a_vertex_within_two_linings_keeps_the_material_of_either_it_holds() {
+        const RIGHT: Material = [0.0, 0.0, 1.0, 0.0];
+        let square = |cx: f32, r: f32| {
+            [(-r, -r), (r, -r), (r, r), (-r, r)].map(|(x, y)| Point::new(cx + x, y))
+        };
+        let wall = Feature::new(FeatureId::Wall, &square(0.0, 10.0), WALL).unwrap();
+        let left = Feature::new(FeatureId::Hole(0), &square(-1.15, 1.0), HOLE).unwrap();
+        let right = Feature::new(FeatureId::Hole(1), &square(1.15, 1.0), RIGHT).unwrap();
+        let slice = Slice::new(wall, &[left, right], Settings::for_road_width(0.4)).unwrap();
+        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
+        let mut lining = Lining::new(&mut out, &slice);
+        for x in [
+            v(0.05, -0.5, HOLE),
+            v(0.05, 0.0, HOLE),
+            v(0.05, 0.5, HOLE),
+            v(0.05, 0.6, WALL),
+        ] {
+            lining.push_vertex(x).unwrap();
+        }
+        assert_eq!(lining.recoloured, 1);
+        let materials: heapless::Vec<Material, 16> = out.iter().map(|x| x.material).collect();
+        assert_eq!(&materials[..], &[HOLE, HOLE, HOLE, RIGHT], "{out:?}");
     }
 }
