@@ -115,14 +115,13 @@ pub(super) fn emit_mcl(
                 }
                 // The stops beside it run next to the outer arc, which lays the strip's half
                 // nearer the feature (its far edge `w / 2 - margin` off the feature,
-                // [`shared_strip`]): each keeps its edge out of that half, moved away from
-                // the feature by what it lacks, at its width, instead of laying a lens over
-                // the outer arc. Keeping the place and narrowing the road instead (and
-                // leaving out a stop narrower than `min_width`, only the extra stops beside
-                // the end, as before) left the neighbouring roads' share of the band bare:
-                // on the random bench's first 40 slices, narrowing took overfill 0.0017 lower
-                // and coverage 0.0011, moving 0.0009 and +0.0002 (the extra stops alone
-                // narrowed, their vertices not: 18 met the bar, 22 now).
+                // [`shared_strip`]): each keeps its edge out of that half by moving away from
+                // the feature, at its width, instead of laying a lens over the outer arc.
+                // Narrowing instead left the neighbouring roads' share of the band bare (on
+                // the random bench's first 40 slices, overfill -0.0017 and coverage -0.0011
+                // narrowed, -0.0009 and +0.0002 moved). Before, only the extra stops kept out
+                // (narrowed, or left out below `min_width`: 18 of those 40 met the bar, 22
+                // now), and the MCL's own vertices nearer the end went on at the band's width.
                 Some((c, false)) => {
                     let (clearance, away) = slice.clearance_gradient_to(c, at);
                     let lack = (0.5 * w - EDGE_MARGIN) - (clearance - 0.5 * width);
