@@ -98,16 +98,17 @@ fn default_layers_meet_the_bar_on_every_reference_slice() {
 /// A splice lays two arcs over one stretch of a keep-out curve, half a road each, and the MCLs
 /// into the inner arc end a quarter road off the curve, as wide as their bands. The outer arc
 /// drops to its half of the strip a road before the inner arc's first end and keeps to it
-/// until a road after its last: four_holes' zigzag (60 splices) doubled 0.031 of its ground
-/// when the outer arc ran at full width up to those ends (lenses of a road across at every
-/// one of them), 0.024 now.
+/// until a road after its last: four_holes' zigzag (60 splices then) doubled 0.031 of its
+/// ground when the outer arc ran at full width up to those ends (lenses of a road across at
+/// every one of them), 0.024 after. With strong fans keeping halves that crowd for up to 12
+/// road widths (eight more MCLs) it splices 45 loops, and doubles 0.024 of its ground.
 #[test]
 fn a_splices_outer_arc_leaves_the_mcls_into_the_inner_arc_their_ground() {
     let slice = slice_file::parse(REFERENCE_SLICES[0].1).unwrap().slice;
     let (l, m) = measured(&slice, &[(0, Fill::Offset)]).remove(0);
     let what = format!("{} ({}): {m:?}", m.pattern, l.note);
     println!("{what}");
-    assert!(l.note.contains("splicing 60 loops"), "{what}");
+    assert!(l.note.contains("splicing 45 loops"), "{what}");
     assert!(m.overfill <= 0.027, "{what}");
     assert!(m.coverage >= 0.985, "{what}");
 }
