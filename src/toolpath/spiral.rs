@@ -102,8 +102,21 @@ fn spokes(
     Ok(out)
 }
 
-/// Writes the spiral layer of `plan` into `sink`.
+/// Writes the spiral layer of `plan` into `sink`, each feature's lining in its own material
+/// ([`Lining`](super::lining::Lining), as the zigzag's): a chord between two turn points
+/// just off a hole's keep-out curve, in a blend a thousandth off the hole's material, sags
+/// onto the curve (four_holes' linear spiral once its plan had eight more MCLs: 0.0012).
 pub fn spiral(
+    slice: &Slice,
+    plan: &Plan,
+    f: ControlFunction,
+    sink: &mut impl PathSink,
+) -> Result<SpiralStats, Error> {
+    let mut lined = super::lining::Lining::new(sink, slice);
+    spiral_into(slice, plan, f, &mut lined)
+}
+
+fn spiral_into(
     slice: &Slice,
     plan: &Plan,
     f: ControlFunction,
