@@ -251,9 +251,10 @@ fn a_dumped_random_slice_plans_again_as_drawn() {
     assert_eq!(digest(&again.slice), digest(&r.slice));
 }
 
-/// Three ways the zigzag laid ground twice, and what they cost these slices (their overfill
-/// as printed went 0.0492 -> 0.0337, 0.0442 -> 0.0304, 0.0467 -> 0.0335 without them): halves that started on the side of a star's notch
-/// narrower than a road, whose keep-out point was pulled round a spike's tip where the arcs
+/// Three ways the zigzag laid ground twice, and what they cost these slices (the random
+/// bench's overfill as printed: 0.0492, 0.0442 and 0.0467 with them, 0.0337, 0.0304 and
+/// 0.0335 now, the strong fans' longer crowding included): halves that started on the side of
+/// a star's notch narrower than a road, whose keep-out point was pulled round a spike's tip where the arcs
 /// either side laid the same strip; an MCL's vertices near an end into a splice's inner arc
 /// at the band's width over the outer arc; and road-wide arcs whose round ends reached over
 /// the next MCL's road where ends crowd. No half starts where the keep-out curve has no point

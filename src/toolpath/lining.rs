@@ -162,10 +162,12 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
         // to the nearer feature's, an arc of unseen slice 5134 laid three vertices on its
         // curve in the other hole's material.
         if dc < edge && v.material != self.material(fc) {
-            if let Some(k) = (0..=self.slice.holes().len()).find(|&k| {
-                k != fc && self.material(k) == v.material && self.slice.clearance_to(k, v.at) < edge
-            }) {
-                (fc, dc) = (k, self.slice.clearance_to(k, v.at));
+            let held = (0..=self.slice.holes().len())
+                .filter(|&k| k != fc && self.material(k) == v.material)
+                .map(|k| (k, self.slice.clearance_to(k, v.at)))
+                .find(|&(_, d)| d < edge);
+            if let Some(kd) = held {
+                (fc, dc) = kd;
             }
         }
         let mut c = v;

@@ -20,6 +20,7 @@ use crate::geometry::polyline;
 use crate::geometry::primitives::{fmax, MinMax};
 use crate::mcl::HalfEnd;
 use crate::toolpath::composition::{along, mcl_end_materials};
+use crate::toolpath::lining::Lining;
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
@@ -103,7 +104,7 @@ fn spokes(
 }
 
 /// Writes the spiral layer of `plan` into `sink`, each feature's lining in its own material
-/// ([`Lining`](super::lining::Lining), as the zigzag's): a chord between two turn points
+/// ([`Lining`], as the zigzag's): a chord between two turn points
 /// just off a hole's keep-out curve, in a blend a thousandth off the hole's material, sags
 /// onto the curve (four_holes' linear spiral once its plan had eight more MCLs: 0.0012).
 pub fn spiral(
@@ -112,10 +113,11 @@ pub fn spiral(
     f: ControlFunction,
     sink: &mut impl PathSink,
 ) -> Result<SpiralStats, Error> {
-    let mut lined = super::lining::Lining::new(sink, slice);
+    let mut lined = Lining::new(sink, slice);
     spiral_into(slice, plan, f, &mut lined)
 }
 
+/// [`spiral`] into a sink that lines the features.
 fn spiral_into(
     slice: &Slice,
     plan: &Plan,

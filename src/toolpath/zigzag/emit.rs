@@ -205,6 +205,16 @@ pub(super) fn spanned(ends: &Ends, c: usize, from: u16, to: u16, forward: bool) 
     (count, closed)
 }
 
+/// The arc length from parameter `s0` to `s` along `curve`, going forward (increasing arc
+/// length) or back.
+fn along_curve(curve: &KeepOut<'_>, s0: f32, s: f32, forward: bool) -> f32 {
+    if forward {
+        curve.wrap(s - s0)
+    } else {
+        curve.wrap(s0 - s)
+    }
+}
+
 /// The arc of curve `c` from end `from` to end `to`: which way it runs (forward: increasing
 /// arc length; [`arc_of_direction`]), and its [`Arc`] role.
 pub(super) fn arc_of(
@@ -217,24 +227,12 @@ pub(super) fn arc_of(
     let s0 = ends.param[from as usize];
     let (forward, (count, closed)) = arc_of_direction(ends, curve, c, from, to);
     let (lo, hi) = ends.ranges[c];
-    let (lo, n) = (lo as usize, (hi - lo) as usize);
-    if n < 4 || !closed {
+    if hi - lo < 4 || !closed {
         return (forward, Arc::Plain);
     }
-    let pf = ends.slot[from as usize] as usize;
     // The end `k` steps from `from` along the arc's direction.
-    let at = |k: isize| {
-        let step = if forward { k } else { -k };
-        ends.order[lo + (pf as isize + step).rem_euclid(n as isize) as usize]
-    };
-    let along = |id: u16| {
-        let s = ends.param[id as usize];
-        if forward {
-            curve.wrap(s - s0)
-        } else {
-            curve.wrap(s0 - s)
-        }
-    };
+    let at = |k: isize| ends.beside(from, if forward { k } else { -k });
+    let along = |id: u16| along_curve(curve, s0, ends.param[id as usize], forward);
     match count {
         // Over a nested arc: the outer arc of a splice.
         2 => (forward, Arc::Outer(along(at(1)), along(at(2)))),
@@ -356,12 +354,7 @@ pub(super) fn emit_arc(
     let mut inner: Vec<(Point, f32), { crate::config::MAX_VERTICES + 2 }> = Vec::new();
     let mut full = false;
     curve.arc(s0, s1, forward, |p, s| {
-        let along = if forward {
-            curve.wrap(s - s0)
-        } else {
-            curve.wrap(s0 - s)
-        };
-        full |= inner.push((p, along)).is_err();
+        full |= inner.push((p, along_curve(curve, s0, s, forward))).is_err();
     });
     if full {
         return Err(Limit::Vertices.error());
@@ -382,21 +375,9 @@ pub(super) fn emit_arc(
     // How far along the curve the ends next to the arc's ends lie, outside the arc: the MCLs
     // there own half of that stretch each.
     let outside_gap = |id: u16, away_forward: bool| {
-        let (lo, hi) = ends.ranges[c];
-        let (lo, n) = (lo as usize, (hi - lo) as usize);
-        let k = ends.slot[id as usize] as usize;
-        let j = if away_forward {
-            (k + 1) % n
-        } else {
-            (k + n - 1) % n
-        };
-        let other = ends.order[lo + j];
-        let (a, b) = (ends.param[id as usize], ends.param[other as usize]);
-        if away_forward {
-            curve.wrap(b - a)
-        } else {
-            curve.wrap(a - b)
-        }
+        let next = ends.beside(id, if away_forward { 1 } else { -1 });
+        let param = |e: u16| ends.param[e as usize];
+        along_curve(curve, param(id), param(next), away_forward)
     };
     let (gap0, gap1) = (outside_gap(from, !forward), outside_gap(to, forward));
     let total = inner.last().map_or(0.0, |&(_, along)| along);

@@ -149,6 +149,15 @@ impl Ends {
         }
     }
 
+    /// The end `steps` places from end `id` along its curve (increasing arc length; back for
+    /// a negative count), round the curve's ends.
+    pub(super) fn beside(&self, id: u16, steps: isize) -> u16 {
+        let (lo, hi) = self.ranges[self.curve[id as usize] as usize];
+        let n = (hi - lo) as isize;
+        let k = self.slot[id as usize] as isize;
+        self.order[lo as usize + (k + steps).rem_euclid(n) as usize]
+    }
+
     /// Joins ends `b` and `c` by an arc, their former mates to each other: arcs `(a, b)` and
     /// `(c, d)` become `(a, d)` and `(b, c)` (a splice); where one of them was free, the
     /// other's former mate is left free instead.
