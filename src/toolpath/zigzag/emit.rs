@@ -146,6 +146,7 @@ pub(super) fn emit_mcl(
             meander(
                 slice,
                 plan,
+                (&pts[..], &cum[..n]),
                 (pts[i], pts[j]),
                 (cum[i], cum[j], len),
                 (&ma, &mb),
