@@ -286,6 +286,7 @@ pub(super) fn meander(
             count: count as i32,
         };
         state.wide.put(k as i32, too_wide(slice, band));
+        let raw = band;
         let band = band.filter(|_| grid.in_run(slice, plan, fan, &mut state.wide, k as i32));
         let mut ends = stroke_ends(slice, q, spacing, band, fan);
         // Where the strokes fan apart faster than their ends widen (a large cell, an MCL
@@ -305,6 +306,14 @@ pub(super) fn meander(
             ends = stroke_ends(slice, q, part, band, fan);
         }
         state.in_meander = stroke(slice, (q, dir), ends, part, material, fan, state, sink)?;
+        // Along a move longer than a road or two (a straight stretch of MCL, along which the
+        // fan parts or crowds) the road follows its band at every sample, a road apart, not
+        // only at the MCL's vertices: each move is laid at one width.
+        let clear = |x: f32| (s - x).abs() >= w;
+        if !state.in_meander && clear(sa) && clear(sb) && clear(0.0) && clear(len) {
+            let (at, width) = road_at(slice, fan, q, false, raw);
+            emit_move(slice, sink, Vertex { at, material, width, deposit: true })?;
+        }
         k += step;
     }
     Ok(())
