@@ -312,7 +312,16 @@ pub(super) fn meander(
         let clear = |x: f32| (s - x).abs() >= w;
         if !state.in_meander && clear(sa) && clear(sb) && clear(0.0) && clear(len) {
             let (at, width) = road_at(slice, fan, q, false, raw);
-            emit_move(slice, sink, Vertex { at, material, width, deposit: true })?;
+            emit_move(
+                slice,
+                sink,
+                Vertex {
+                    at,
+                    material,
+                    width,
+                    deposit: true,
+                },
+            )?;
         }
         k += step;
     }
@@ -664,5 +673,47 @@ pub(super) fn road_at(
         (shifted, width.fmin(shifted_cap))
     } else {
         (p, width.fmin(cap(p)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_grid_samples_its_mcl_by_arc_length() {
+        // An L: 2 mm along x, then 1 mm along y.
+        let pts = [
+            Point::new(0.0, 0.0),
+            Point::new(2.0, 0.0),
+            Point::new(2.0, 1.0),
+        ];
+        let cum = [0.0, 2.0, 3.0];
+        let grid = Grid {
+            mcl: (&pts, &cum),
+            spacing: 0.5,
+            count: 6,
+        };
+        // Sample k at (k + 1/2) spacing: 0.25, 0.75, ..., 2.75.
+        let (q, dir) = grid.sample(0);
+        assert!(q.dist(Point::new(0.25, 0.0)) < 1e-6 && dir.y == 0.0 && dir.x > 0.0);
+        let (q, dir) = grid.sample(4);
+        assert!(q.dist(Point::new(2.0, 0.25)) < 1e-6 && dir.x == 0.0 && dir.y > 0.0);
+        let (q, _) = grid.sample(5);
+        assert!(q.dist(Point::new(2.0, 0.75)) < 1e-6);
+    }
+
+    #[test]
+    fn seen_remembers_the_last_samples_asked() {
+        let mut seen = Seen([(-1, false); SEEN]);
+        assert_eq!(seen.get(0), None);
+        seen.put(3, true);
+        seen.put(4, false);
+        assert_eq!(seen.get(3), Some(true));
+        assert_eq!(seen.get(4), Some(false));
+        // A sample SEEN further on takes the slot of an older one.
+        seen.put(3 + SEEN as i32, false);
+        assert_eq!(seen.get(3), None);
+        assert_eq!(seen.get(3 + SEEN as i32), Some(false));
     }
 }
