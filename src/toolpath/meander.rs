@@ -278,15 +278,15 @@ pub(super) fn meander(
         let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
         let material = along(ma, mb, s, len);
         let q = a.lerp(b, t);
-        let band = band_at(slice, plan, q, dir, fan);
         // A stroke only in a run of `MIN_STROKES`: fewer lap back over the road either side
         // more than they fill.
         let grid = Grid {
             mcl,
             spacing,
             count: count as i32,
+            walk: step,
         };
-        state.wide.put(k as i32, too_wide(slice, band));
+        let band = grid.band(slice, plan, fan, &mut state.wide, k as i32);
         let raw = band;
         let band = band.filter(|_| grid.in_run(slice, plan, fan, &mut state.wide, k as i32));
         let mut ends = stroke_ends(slice, q, spacing, band, fan);
@@ -346,6 +346,9 @@ struct Grid<'a> {
     mcl: (&'a [Point], &'a [f32]),
     spacing: f32,
     count: i32,
+    /// 1 walking from the `from` end, -1 toward it: the direction each band is measured
+    /// along, so its sides are the walk's.
+    walk: f32,
 }
 
 impl Grid<'_> {
@@ -368,21 +371,37 @@ impl Grid<'_> {
         } else {
             0.0
         };
-        (pts[i].lerp(pts[i + 1], t), pts[i + 1] - pts[i])
+        (
+            pts[i].lerp(pts[i + 1], t),
+            (pts[i + 1] - pts[i]) * self.walk,
+        )
     }
 
-    /// Whether the band at sample `k` is too wide ([`too_wide`]; none beyond the MCL).
-    fn wide(&self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, seen: &mut Seen, k: i32) -> bool {
+    /// The band at sample `k` ([`band_at`], along the walk; none beyond the MCL), measured
+    /// once: asked while a neighbour's run is counted, it is kept for the walk's arrival.
+    fn band(
+        &self,
+        slice: &Slice,
+        plan: &Plan,
+        fan: &Fan<'_>,
+        seen: &mut Seen,
+        k: i32,
+    ) -> Option<Band> {
         if k < 0 || k >= self.count {
-            return false;
+            return None;
         }
-        if let Some(wide) = seen.get(k) {
-            return wide;
+        if let Some(band) = seen.get(k) {
+            return band;
         }
         let (q, dir) = self.sample(k);
-        let wide = too_wide(slice, band_at(slice, plan, q, dir, fan));
-        seen.put(k, wide);
-        wide
+        let band = band_at(slice, plan, q, dir, fan);
+        seen.put(k, band);
+        band
+    }
+
+    /// Whether the band at sample `k` is too wide ([`too_wide`]).
+    fn wide(&self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, seen: &mut Seen, k: i32) -> bool {
+        too_wide(slice, self.band(slice, plan, fan, seen, k))
     }
 
     /// Whether sample `k` (too wide) lies in a run of at least [`MIN_STROKES`] samples too
@@ -400,22 +419,22 @@ impl Grid<'_> {
     }
 }
 
-/// Which samples of a meander's [`Grid`] are too wide, for the last few asked: a sample is
-/// asked while its neighbours' runs are counted, and again when the walk reaches it.
+/// The bands at the last few samples of a meander's [`Grid`] asked: a sample is asked while
+/// its neighbours' runs are counted, and again when the walk reaches it.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Seen([(i32, bool); SEEN]);
+pub(super) struct Seen([(i32, Option<Band>); SEEN]);
 
 /// Samples [`Seen`] holds: the run around one sample spans `2 MIN_STROKES - 1`.
 const SEEN: usize = 2 * MIN_STROKES as usize;
 
 impl Seen {
-    fn get(&self, k: i32) -> Option<bool> {
-        let (at, wide) = self.0[k.rem_euclid(SEEN as i32) as usize];
-        (at == k).then_some(wide)
+    fn get(&self, k: i32) -> Option<Option<Band>> {
+        let (at, band) = self.0[k.rem_euclid(SEEN as i32) as usize];
+        (at == k).then_some(band)
     }
 
-    fn put(&mut self, k: i32, wide: bool) {
-        self.0[k.rem_euclid(SEEN as i32) as usize] = (k, wide);
+    fn put(&mut self, k: i32, band: Option<Band>) {
+        self.0[k.rem_euclid(SEEN as i32) as usize] = (k, band);
     }
 }
 
@@ -453,7 +472,7 @@ impl Strokes {
             right_first: true,
             in_meander: false,
             last: None,
-            wide: Seen([(-1, false); SEEN]),
+            wide: Seen([(-1, None); SEEN]),
         }
     }
 }
@@ -694,6 +713,7 @@ mod tests {
             mcl: (&pts, &cum),
             spacing: 0.5,
             count: 6,
+            walk: 1.0,
         };
         // Sample k at (k + 1/2) spacing: 0.25, 0.75, ..., 2.75.
         let (q, dir) = grid.sample(0);
@@ -706,15 +726,16 @@ mod tests {
 
     #[test]
     fn seen_remembers_the_last_samples_asked() {
-        let mut seen = Seen([(-1, false); SEEN]);
+        let band = Some((Point::new(0.0, 1.0), 2.0, 3.0));
+        let mut seen = Seen([(-1, None); SEEN]);
         assert_eq!(seen.get(0), None);
-        seen.put(3, true);
-        seen.put(4, false);
-        assert_eq!(seen.get(3), Some(true));
-        assert_eq!(seen.get(4), Some(false));
+        seen.put(3, band);
+        seen.put(4, None);
+        assert_eq!(seen.get(3), Some(band));
+        assert_eq!(seen.get(4), Some(None));
         // A sample SEEN further on takes the slot of an older one.
-        seen.put(3 + SEEN as i32, false);
+        seen.put(3 + SEEN as i32, None);
         assert_eq!(seen.get(3), None);
-        assert_eq!(seen.get(3 + SEEN as i32), Some(false));
+        assert_eq!(seen.get(3 + SEEN as i32), Some(None));
     }
 }
