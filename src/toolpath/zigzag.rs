@@ -21,7 +21,9 @@
 //! (`meander::meander`): strokes across the band a road apart, each stroke's ends kept a road
 //! off every keep-out curve where an arc may run, half a road where none does (a stretch the
 //! pairing leaves between two ends, `ends::Arcs`), all still inside the one road. The strokes
-//! lie on one grid along the whole MCL, whatever the spacing of its vertices. The bands, road
+//! lie on one grid along the whole MCL, whatever the spacing of its vertices, and come in runs
+//! of at least three (a band too wide for a road or two only, as on the outer side of a bend,
+//! is left as slivers: a one-stroke jog laps over the road either side). The bands, road
 //! widths and meanders are in the sibling module `meander`.
 
 mod emit;
