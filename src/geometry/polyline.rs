@@ -21,6 +21,25 @@ pub fn point_at(pts: &[Point], s: f32) -> Point {
     *pts.last().unwrap_or(&Point::default())
 }
 
+/// [`point_at`] with the arc length at every point known (`cum`, as long as `pts`), found by
+/// a binary search, and the direction of the segment it lies on (zero on a polyline of one
+/// point).
+pub fn point_along(pts: &[Point], cum: &[f32], s: f32) -> (Point, Point) {
+    let n = pts.len().min(cum.len());
+    if n < 2 {
+        return (pts.first().copied().unwrap_or_default(), Point::default());
+    }
+    // The segment `i .. i + 1` holding `s` (the first or the last beyond the ends).
+    let i = cum[..n].partition_point(|&c| c <= s).clamp(1, n - 1) - 1;
+    let seg = cum[i + 1] - cum[i];
+    let t = if seg > 1e-9 {
+        ((s - cum[i]) / seg).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (pts[i].lerp(pts[i + 1], t), pts[i + 1] - pts[i])
+}
+
 /// Projection of `p`: (arc length of the closest point, the point, its distance).
 pub fn project(pts: &[Point], p: Point) -> (f32, Point, f32) {
     project_points(pts.iter().copied(), p).0

@@ -9,7 +9,7 @@ use heapless::Vec;
 use crate::config::MAX_MCLS;
 use crate::error::Limit;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polygon, primitives, Point};
+use crate::geometry::{polygon, polyline, primitives, Point};
 use crate::toolpath::composition::along;
 use crate::toolpath::zigzag::EDGE_MARGIN;
 use crate::toolpath::{emit_move, PathSink, Vertex};
@@ -268,6 +268,12 @@ pub(super) fn meander(
         libm::floorf(sa / spacing - 0.5)
     };
     let step = if sb > sa { 1.0 } else { -1.0 };
+    let grid = Grid {
+        mcl,
+        spacing,
+        count: count as i32,
+        walk: step,
+    };
     let mut k = first;
     loop {
         let s = (k + 0.5) * spacing;
@@ -280,15 +286,8 @@ pub(super) fn meander(
         let q = a.lerp(b, t);
         // A stroke only in a run of `MIN_STROKES`: fewer lap back over the road either side
         // more than they fill.
-        let grid = Grid {
-            mcl,
-            spacing,
-            count: count as i32,
-            walk: step,
-        };
-        let band = grid.band(slice, plan, fan, &mut state.wide, k as i32);
-        let raw = band;
-        let band = band.filter(|_| grid.in_run(slice, plan, fan, &mut state.wide, k as i32));
+        let raw = grid.band(slice, plan, fan, &mut state.bands, k as i32);
+        let band = raw.filter(|_| grid.in_run(slice, plan, fan, &mut state.bands, k as i32));
         let mut ends = stroke_ends(slice, q, spacing, band, fan);
         // Where the strokes fan apart faster than their ends widen (a large cell, an MCL
         // curving round a small hole), strokes between the last and this one, at even steps
@@ -352,29 +351,11 @@ struct Grid<'a> {
 }
 
 impl Grid<'_> {
-    /// The MCL's point at sample `k` and its direction there (its segment's).
+    /// The MCL's point at sample `k` and its direction there (its segment's, along the walk).
     fn sample(&self, k: i32) -> (Point, Point) {
         let (pts, cum) = self.mcl;
-        let s = (k as f32 + 0.5) * self.spacing;
-        let n = pts.len().min(cum.len());
-        // The segment `i .. i + 1` holding `s`.
-        let i = cum[..n]
-            .partition_point(|&c| c <= s)
-            .clamp(1, n.saturating_sub(1).max(1))
-            - 1;
-        if i + 1 >= n {
-            return (pts[i], Point::new(0.0, 0.0));
-        }
-        let seg = cum[i + 1] - cum[i];
-        let t = if seg > 1e-9 {
-            ((s - cum[i]) / seg).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        (
-            pts[i].lerp(pts[i + 1], t),
-            (pts[i + 1] - pts[i]) * self.walk,
-        )
+        let (q, dir) = polyline::point_along(pts, cum, (k as f32 + 0.5) * self.spacing);
+        (q, dir * self.walk)
     }
 
     /// The band at sample `k` ([`band_at`], along the walk; none beyond the MCL), measured
@@ -447,8 +428,8 @@ pub(super) struct Strokes {
     pub in_meander: bool,
     /// The last stroke, while the strokes run on.
     last: Option<Last>,
-    /// The grid's samples known to be too wide, or not.
-    wide: Seen,
+    /// The bands at the grid's samples around the last one asked.
+    bands: Seen,
 }
 
 /// The last stroke of a meander: where the next one's ends widen to ([`stroke`]) and where
@@ -472,7 +453,7 @@ impl Strokes {
             right_first: true,
             in_meander: false,
             last: None,
-            wide: Seen([(-1, None); SEEN]),
+            bands: Seen([(-1, None); SEEN]),
         }
     }
 }
