@@ -248,6 +248,7 @@ pub(super) fn meander(
     (sa, sb, len): (f32, f32, f32),
     (ma, mb): (&crate::Material, &crate::Material),
     fan: &Fan<'_>,
+    closing: Option<Point>,
     state: &mut Strokes,
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
@@ -255,28 +256,22 @@ pub(super) fn meander(
     if len < 1e-6 || (sb - sa).abs() < 1e-9 {
         return Ok(());
     }
-    // Strokes stand a road apart (a little less, evenly) over the whole MCL, at arc lengths
-    // `(k + 1/2) spacing` from its `from` end, whatever the spacing of its vertices: a move
+    // Strokes stand a road apart (a little less, evenly) over the whole MCL, the first and the
+    // last a road from its ends ([`Grid::new`]), whatever the spacing of its vertices: a move
     // shorter than a road holds one stroke or none, a long one several.
-    let count = libm::ceilf(len / w).fmax(1.0);
-    let spacing = len / count;
+    let step = if sb > sa { 1.0 } else { -1.0 };
+    let grid = Grid::new(w, mcl, len, step);
+    let (offset, spacing, count) = (grid.offset, grid.spacing, grid.count as f32);
     let dir = b - a;
     // The strokes on this move, in walking order: from `sa` (included) toward `sb`.
     let first = if sb > sa {
-        libm::ceilf(sa / spacing - 0.5)
+        libm::ceilf((sa - offset) / spacing).fmax(0.0)
     } else {
-        libm::floorf(sa / spacing - 0.5)
-    };
-    let step = if sb > sa { 1.0 } else { -1.0 };
-    let grid = Grid {
-        mcl,
-        spacing,
-        count: count as i32,
-        walk: step,
+        libm::floorf((sa - offset) / spacing).fmin(count - 1.0)
     };
     let mut k = first;
     loop {
-        let s = (k + 0.5) * spacing;
+        let s = offset + k * spacing;
         let inside = if sb > sa { s < sb } else { s > sb };
         if !inside || k < 0.0 || k >= count {
             break;
@@ -288,6 +283,19 @@ pub(super) fn meander(
         // more than they fill.
         let raw = grid.band(slice, plan, fan, &mut state.bands, k as i32);
         let band = raw.filter(|_| grid.in_run(slice, plan, fan, &mut state.bands, k as i32));
+        if band.is_some() && state.last.is_none() {
+            // A run of strokes starts. If it runs on to the walk's end, where a bare strip
+            // lies beside the MCL's end on the side of `closing`, it starts on the side that
+            // makes its last stroke end there; the first run after a strip laid at the
+            // walk's start starts beside that strip instead.
+            if state.opened {
+                state.opened = false;
+            } else if let Some(right) = closing
+                .and_then(|at| grid.closing_side(slice, plan, fan, &mut state.bands, k as i32, at))
+            {
+                state.right_first = right;
+            }
+        }
         let mut ends = stroke_ends(slice, q, spacing, band, fan);
         // Where the strokes fan apart faster than their ends widen (a large cell, an MCL
         // curving round a small hole), strokes between the last and this one, at even steps
@@ -339,10 +347,11 @@ pub(super) fn meander(
 const MIN_STROKES: i32 = 3;
 
 /// The grid a meander's strokes stand on along one MCL: `count` samples `spacing` apart,
-/// the `k`-th at arc length `(k + 1/2) spacing` from the MCL's `from` end.
+/// the `k`-th at arc length `offset + k spacing` from the MCL's `from` end.
 struct Grid<'a> {
     /// The MCL's points from its `from` end, and the arc length at each.
     mcl: (&'a [Point], &'a [f32]),
+    offset: f32,
     spacing: f32,
     count: i32,
     /// 1 walking from the `from` end, -1 toward it: the direction each band is measured
@@ -350,11 +359,33 @@ struct Grid<'a> {
     walk: f32,
 }
 
-impl Grid<'_> {
+impl<'a> Grid<'a> {
+    /// The grid along an MCL of length `len` (roads `w` wide), walked from its `from` end
+    /// (`walk` 1) or toward it (-1): its first and last samples stand a road (and the edge
+    /// margins) from its ends, the others evenly between, at most a road apart. A stroke a road
+    /// from a keep-out curve lies beside the curve's strip, its edge on the strip's.
+    fn new(w: f32, mcl: (&'a [Point], &'a [f32]), len: f32, walk: f32) -> Grid<'a> {
+        let offset = (w + 4.0 * EDGE_MARGIN).fmin(0.5 * len);
+        let inner = len - 2.0 * offset;
+        let count = (libm::ceilf(inner / w) + 1.0).fmax(1.0);
+        let spacing = if count > 1.0 {
+            inner / (count - 1.0)
+        } else {
+            w
+        };
+        Grid {
+            mcl,
+            offset,
+            spacing,
+            count: count as i32,
+            walk,
+        }
+    }
+
     /// The MCL's point at sample `k` and its direction there (its segment's, along the walk).
     fn sample(&self, k: i32) -> (Point, Point) {
         let (pts, cum) = self.mcl;
-        let (q, dir) = polyline::point_along(pts, cum, (k as f32 + 0.5) * self.spacing);
+        let (q, dir) = polyline::point_along(pts, cum, self.offset + k as f32 * self.spacing);
         (q, dir * self.walk)
     }
 
@@ -383,6 +414,40 @@ impl Grid<'_> {
     /// Whether the band at sample `k` is too wide ([`too_wide`]).
     fn wide(&self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, seen: &mut Seen, k: i32) -> bool {
         too_wide(slice, self.band(slice, plan, fan, seen, k))
+    }
+
+    /// For a run of strokes starting at sample `k`: the side its first stroke starts on (right:
+    /// `true`) for its last to end on the side of point `at`, if the run reaches the walk's
+    /// last sample (every sample from `k` on too wide).
+    fn closing_side(
+        &self,
+        slice: &Slice,
+        plan: &Plan,
+        fan: &Fan<'_>,
+        seen: &mut Seen,
+        k: i32,
+        at: Point,
+    ) -> Option<bool> {
+        let last = if self.walk > 0.0 { self.count - 1 } else { 0 };
+        let step = if self.walk > 0.0 { 1 } else { -1 };
+        let mut strokes = 1;
+        let mut j = k;
+        while j != last {
+            j += step;
+            if !self.wide(slice, plan, fan, seen, j) {
+                return None;
+            }
+            strokes += 1;
+        }
+        let (q, _) = self.sample(last);
+        let (left_n, _, _) = self.band(slice, plan, fan, seen, last)?;
+        let end_right = (at - q).dot(left_n) < 0.0;
+        // Each stroke crosses to the other side: an even number ends where it started.
+        Some(if strokes % 2 == 0 {
+            end_right
+        } else {
+            !end_right
+        })
     }
 
     /// Whether sample `k` (too wide) lies in a run of at least [`MIN_STROKES`] samples too
@@ -426,6 +491,9 @@ pub(super) struct Strokes {
     pub right_first: bool,
     /// Whether the last sample along the MCL was a stroke.
     pub in_meander: bool,
+    /// Whether the side of the first run's first stroke is set (beside a strip laid at the
+    /// walk's start).
+    pub opened: bool,
     /// The last stroke, while the strokes run on.
     last: Option<Last>,
     /// The bands at the grid's samples around the last one asked.
@@ -446,12 +514,46 @@ struct Last {
     material: crate::Material,
 }
 
+/// The band at the sample a meander along MCL `mcl` (points and arc lengths from its `from`
+/// end) walked from that end (`forward`) or from its far end starts with, if a stroke stands
+/// there (the band too wide, in a run of [`MIN_STROKES`]).
+pub(super) fn opening_stroke(
+    slice: &Slice,
+    plan: &Plan,
+    mcl: (&[Point], &[f32]),
+    forward: bool,
+    fan: &Fan<'_>,
+    state: &mut Strokes,
+) -> Option<Band> {
+    let len = *mcl.1.last()?;
+    if len < 1e-6 {
+        return None;
+    }
+    let grid = Grid::new(
+        slice.settings().road_width,
+        mcl,
+        len,
+        if forward { 1.0 } else { -1.0 },
+    );
+    let k = if forward { 0 } else { grid.count - 1 };
+    let band = grid.band(slice, plan, fan, &mut state.bands, k);
+    band.filter(|_| too_wide(slice, band) && grid.in_run(slice, plan, fan, &mut state.bands, k))
+}
+
 impl Strokes {
+    /// Where the road stands after the last stroke, if the last sample along the MCL was one:
+    /// the stroke's end the next one starts from.
+    pub(super) fn tip(&self) -> Option<Point> {
+        let last = self.last.filter(|_| self.in_meander)?;
+        Some(last.tips[if self.right_first { 0 } else { 1 }])
+    }
+
     /// Before the first stroke of an MCL.
     pub(super) fn new() -> Strokes {
         Strokes {
             right_first: true,
             in_meander: false,
+            opened: false,
             last: None,
             bands: Seen([(-1, None); SEEN]),
         }
@@ -692,11 +794,12 @@ mod tests {
         let cum = [0.0, 2.0, 3.0];
         let grid = Grid {
             mcl: (&pts, &cum),
+            offset: 0.25,
             spacing: 0.5,
             count: 6,
             walk: 1.0,
         };
-        // Sample k at (k + 1/2) spacing: 0.25, 0.75, ..., 2.75.
+        // Sample k at 0.25 + k 0.5: 0.25, 0.75, ..., 2.75.
         let (q, dir) = grid.sample(0);
         assert!(q.dist(Point::new(0.25, 0.0)) < 1e-6 && dir.y == 0.0 && dir.x > 0.0);
         let (q, dir) = grid.sample(4);

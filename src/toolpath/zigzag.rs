@@ -29,7 +29,7 @@
 mod emit;
 mod ends;
 
-use emit::{emit_arc, emit_mcl, inner_end};
+use emit::{emit_arc, emit_mcl, inner_end, Strip};
 use ends::{end_point, even_out, find, open_pieces, Arcs, Ends};
 
 use super::despike::{finish, Despike};
@@ -291,12 +291,27 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             // In walking order: the end it starts from, then the other.
             let spliced = [id, id ^ 1]
                 .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
+            // The bare stretches beside its ends, which a meander reaching them lays.
+            let strips = [id, id ^ 1].map(|e| {
+                if inner_end(&ends, &curves, e) {
+                    return None;
+                }
+                let (forward, reach) = arcs.bare_beside(&ends, &curves, e)?;
+                let c = ends.curve[e as usize] as usize;
+                Some(Strip {
+                    curve: &curves[c],
+                    c,
+                    param: ends.param[e as usize],
+                    forward,
+                    reach,
+                })
+            });
             visited[id as usize] = true;
             let other = id ^ 1;
             visited[other as usize] = true;
             let mate = ends.arc[other as usize];
             let next = (mate != NONE && !visited[mate as usize]).then_some(mate);
-            emit_mcl(slice, plan, k, &fan, spliced, forward, first, sink)?;
+            emit_mcl(slice, plan, k, &fan, spliced, strips, forward, first, sink)?;
             first = false;
             let Some(mate) = next else {
                 here = Some(end_point(plan, &ends, other));

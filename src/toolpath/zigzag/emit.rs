@@ -8,10 +8,94 @@ use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::{self, KeepOut};
 use crate::toolpath::composition::{along, mcl_end_materials};
-use crate::toolpath::meander::{band_at, meander, road_at, too_wide, Fan, Strokes};
+use crate::toolpath::meander::{band_at, meander, opening_stroke, road_at, too_wide, Fan, Strokes};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 use heapless::Vec;
+
+/// A stretch of keep-out curve beside an MCL's end that no arc lays
+/// ([`Arcs::bare_beside`](super::ends::Arcs::bare_beside)): where a meander reaches that end,
+/// the road lays the half of the stretch next to it, as a stroke along the strip.
+#[derive(Clone, Copy)]
+pub(super) struct Strip<'a> {
+    pub curve: &'a KeepOut<'a>,
+    /// The curve's index (a hole's, or `holes` for the wall).
+    pub c: usize,
+    /// The MCL end's parameter on the curve.
+    pub param: f32,
+    /// Which way the bare stretch runs from the end (forward: increasing parameter).
+    pub forward: bool,
+    /// Half the bare stretch's length: how far the MCL's share of it reaches.
+    pub reach: f32,
+}
+
+/// Shortest strip a meander lays beside its MCL's end, in road widths: a stroke's end nearer
+/// the MCL than this leaves no strip worth a turn.
+const STRIP_MIN: f32 = 0.25;
+
+impl Strip<'_> {
+    /// How far along the strip (from the end) the road lays it, for a stroke's end at `tip`
+    /// beside it; `None` where `tip` lies on the other side of the MCL's end, or nearer it
+    /// than [`STRIP_MIN`].
+    fn span(&self, slice: &Slice, tip: Point) -> Option<f32> {
+        let w = slice.settings().road_width;
+        let s = self.curve.param_of(tip);
+        let ahead = if self.forward {
+            self.curve.wrap(s - self.param)
+        } else {
+            self.curve.wrap(self.param - s)
+        };
+        let d = ahead.fmin(self.reach - 0.5 * w);
+        (ahead < 0.5 * self.curve.length() && d >= STRIP_MIN * w).then_some(d)
+    }
+
+    /// The curve's point `d` along the strip from the end.
+    fn toward(&self, d: f32) -> Point {
+        self.curve.at(if self.forward {
+            self.param + d
+        } else {
+            self.param - d
+        })
+    }
+
+    /// Lays the strip between `d` along it and the end, toward the end (`inward`) or away
+    /// from it, the end's own point left out (the MCL lays it).
+    fn lay(
+        &self,
+        slice: &Slice,
+        d: f32,
+        inward: bool,
+        sink: &mut impl PathSink,
+    ) -> Result<(), Error> {
+        let far = if self.forward {
+            self.param + d
+        } else {
+            self.param - d
+        };
+        let (s0, s1, forward) = if inward {
+            (far, self.param, !self.forward)
+        } else {
+            (self.param, far, self.forward)
+        };
+        let material = slice.material_at(self.c);
+        let width = slice.settings().road_width - 2.0 * EDGE_MARGIN;
+        let mut out = Ok(());
+        self.curve.arc(s0, s1, forward, |at, s| {
+            let off = self.curve.wrap(s - self.param);
+            let at_end = off.fmin(self.curve.length() - off) < 1e-6;
+            if out.is_ok() && !at_end {
+                let v = Vertex {
+                    at,
+                    material,
+                    width,
+                    deposit: true,
+                };
+                out = emit_move(slice, sink, v);
+            }
+        });
+        out
+    }
+}
 
 /// Deposits MCL `k` from its `from` end (`forward`) or from its far end, `near` its
 /// neighbouring MCLs ([`neighbours`]), `spliced` the curve of each end (`from` end first) that
@@ -24,6 +108,7 @@ pub(super) fn emit_mcl(
     k: usize,
     fan: &Fan<'_>,
     spliced: [Option<usize>; 2],
+    strips: [Option<Strip<'_>>; 2],
     forward: bool,
     travel_to_start: bool,
     sink: &mut impl PathSink,
@@ -59,6 +144,11 @@ pub(super) fn emit_mcl(
             })
     };
     let mut strokes = Strokes::new();
+    // A point on the bare strip beside the far end, if any: a meander's run reaching that end
+    // ends on its side ([`meander`]).
+    let closing = strips[1].map(|strip| strip.toward(w));
+    // Whether a strip beside an end was laid: the extra stops there are not.
+    let mut stripped = false;
     for step in 0..n {
         let i = order(step);
         let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
@@ -79,7 +169,20 @@ pub(super) fn emit_mcl(
                 stops.push(stop).map_err(|_| Limit::PathVertices.error())?;
             }
         }
+        if step + 1 == n && n >= 2 {
+            // A meander reaching the far end beside a bare strip lays the strip from its
+            // stroke's end on that side, on to the end.
+            if let (Some(strip), Some(tip)) = (strips[1], strokes.tip()) {
+                if let Some(d) = strip.span(slice, tip) {
+                    strip.lay(slice, d, true, sink)?;
+                    stripped = true;
+                }
+            }
+        }
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
+            if stripped && !is_end {
+                continue;
+            }
             // Inside a meander (the last sample before was a stroke, and the band here is
             // wide too) the strokes fill the band: no road along the MCL's middle.
             let band = band_at(slice, plan, p, dir, fan);
@@ -140,6 +243,35 @@ pub(super) fn emit_mcl(
                 deposit: step != 0 || k != 0 || !travel_to_start,
             };
             emit_move(slice, sink, v)?;
+            if step == 0 && k == 0 && n >= 2 {
+                // A meander leaving the first end beside a bare strip: the road lays the strip
+                // out to where the first stroke's end on that side stands, and starts there.
+                if let Some(strip) = strips[0] {
+                    let start = opening_stroke(
+                        slice,
+                        plan,
+                        (&pts[..], &cum[..n]),
+                        forward,
+                        fan,
+                        &mut strokes,
+                    );
+                    if let Some((left_n, left, right)) = start {
+                        let probe = strip.toward(w);
+                        let on_left = (probe - p).dot(left_n) >= 0.0;
+                        let half = 0.5 * if on_left { left } else { right };
+                        let d = half.fmin(strip.reach - 0.5 * w);
+                        if d >= STRIP_MIN * w {
+                            strip.lay(slice, d, false, sink)?;
+                            strokes.right_first = !on_left;
+                            strokes.opened = true;
+                            stripped = true;
+                        }
+                    }
+                }
+            }
+        }
+        if step == 0 {
+            stripped = false;
         }
         if step + 1 < n {
             let j = order(step + 1);
@@ -151,6 +283,7 @@ pub(super) fn emit_mcl(
                 (cum[i], cum[j], len),
                 (&ma, &mb),
                 fan,
+                closing,
                 &mut strokes,
                 sink,
             )?;

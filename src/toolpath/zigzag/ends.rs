@@ -228,6 +228,34 @@ impl Arcs {
         Arcs { laid }
     }
 
+    /// The stretch of curve beside end `id` that no arc lays, where the arc from `id` runs
+    /// the other way: which way it runs from `id` (forward: increasing arc length) and half
+    /// its length (the MCL at `id` owns the half next to it, the MCL at the stretch's other
+    /// end the rest). `None` where both stretches beside `id` are laid, or both bare (a path's
+    /// free end).
+    pub(super) fn bare_beside(
+        &self,
+        ends: &Ends,
+        curves: &[KeepOut<'_>],
+        id: u16,
+    ) -> Option<(bool, f32)> {
+        let c = ends.curve[id as usize] as usize;
+        let (lo, hi) = *ends.ranges.get(c)?;
+        let (lo, n) = (lo as usize, (hi - lo) as usize);
+        if n < 2 {
+            return None;
+        }
+        let slot = ends.slot[id as usize] as usize;
+        let param = |k: usize| ends.param[ends.order[lo + k % n] as usize];
+        let curve = curves.get(c)?;
+        let (ahead, behind) = (!self.laid[lo + slot], !self.laid[lo + (slot + n - 1) % n]);
+        match (ahead, behind) {
+            (true, false) => Some((true, 0.5 * curve.wrap(param(slot + 1) - param(slot)))),
+            (false, true) => Some((false, 0.5 * curve.wrap(param(slot) - param(slot + n - 1)))),
+            _ => None,
+        }
+    }
+
     /// Whether the keep-out strip nearest to `p` lies on a stretch no arc lays, at least
     /// `margin` (arc length) from either end of it: a curve without MCL ends is bare all round.
     pub(super) fn bare(
@@ -462,6 +490,19 @@ mod tests {
         assert!(bare(Point::new(4.2, 0.3), 0.1));
         // Nearer the hole than the wall: its curve holds no ends, so it is bare all round.
         assert!(bare(Point::new(8.5, 10.0), w));
+        // Beside each end, the stretch its arc does not lay: from 4 on to 22 (half of its 18
+        // mm to each end), and from 2 back round to 24 (half of 58).
+        let beside = |id: u16| arcs.bare_beside(&ends, &curves, id);
+        assert_eq!(beside(1), Some((true, 9.0)));
+        assert_eq!(beside(2), Some((false, 9.0)));
+        assert_eq!(beside(0), Some((false, 29.0)));
+        assert_eq!(beside(3), Some((true, 29.0)));
+        // A path's free end has a bare stretch either side: neither is its own.
+        ends.arc[3] = NONE;
+        ends.arc[2] = NONE;
+        let arcs = Arcs::new(&ends, &curves);
+        assert_eq!(arcs.bare_beside(&ends, &curves, 3), None);
+        assert_eq!(arcs.bare_beside(&ends, &curves, 1), Some((true, 9.0)));
         // Paired the other way, 24 -> 2 (round the corner at 0, the way that passes over no
         // end) and 4 -> 22: the stretches laid and bare swap.
         for (a, b) in [(0u16, 3u16), (1, 2)] {
