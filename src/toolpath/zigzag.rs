@@ -21,7 +21,10 @@
 //! (`meander::meander`): strokes across the band a road apart, each stroke's ends kept a road
 //! off every keep-out curve where an arc may run, half a road where none does (a stretch the
 //! pairing leaves between two ends, `ends::Arcs`), all still inside the one road. The strokes
-//! lie on one grid along the whole MCL, whatever the spacing of its vertices, and come in runs
+//! lie on one grid along the whole MCL, the first and last a road from its ends, whatever the
+//! spacing of its vertices; where a meander reaches an MCL end beside a stretch no arc lays, the
+//! road lays its half of that stretch along the curve (`emit::Strip`), its run of strokes
+//! starting (or ending) on that side. The strokes come in runs
 //! of at least three (a band too wide for a road or two only, as on the outer side of a bend,
 //! is left as slivers: a one-stroke jog laps over the road either side). The bands, road
 //! widths and meanders are in the sibling module `meander`.
