@@ -365,9 +365,13 @@ impl<'a> Grid<'a> {
     /// margins) from its ends, the others evenly between, at most a road apart. A stroke a road
     /// from a keep-out curve lies beside the curve's strip, its edge on the strip's.
     fn new(w: f32, mcl: (&'a [Point], &'a [f32]), len: f32, walk: f32) -> Grid<'a> {
+        // A stroke keeps its edge a road and two edge margins off the feature ([`stroke_ends`]):
+        // its centre a road off the keep-out curve (half a road off the feature) and two more
+        // margins clears that for any stroke no wider than a road, a hair to spare.
         let offset = (w + 4.0 * EDGE_MARGIN).fmin(0.5 * len);
         let inner = len - 2.0 * offset;
-        let count = (libm::ceilf(inner / w) + 1.0).fmax(1.0);
+        // One sample where the MCL is no longer than two offsets (at its middle).
+        let count = libm::ceilf(inner / w) + 1.0;
         let spacing = if count > 1.0 {
             inner / (count - 1.0)
         } else {

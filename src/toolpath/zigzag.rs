@@ -295,20 +295,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             let spliced = [id, id ^ 1]
                 .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
             // The bare stretches beside its ends, which a meander reaching them lays.
-            let strips = [id, id ^ 1].map(|e| {
-                if inner_end(&ends, &curves, e) {
-                    return None;
-                }
-                let (forward, reach) = arcs.bare_beside(&ends, &curves, e)?;
-                let c = ends.curve[e as usize] as usize;
-                Some(Strip {
-                    curve: &curves[c],
-                    c,
-                    param: ends.param[e as usize],
-                    forward,
-                    reach,
-                })
-            });
+            let strips = [id, id ^ 1].map(|e| Strip::beside(&arcs, &ends, &curves, e));
             visited[id as usize] = true;
             let other = id ^ 1;
             visited[other as usize] = true;

@@ -1,14 +1,16 @@
 //! Depositing the zigzag: a road out and back along each MCL (banded, or a meander where the
 //! fan outgrows the widest road), and the arcs along the keep-out curves between MCL ends.
 
-use super::ends::Ends;
+use super::ends::{Arcs, Ends};
 use super::{EDGE_MARGIN, END_STEPS, NONE};
 use crate::error::Limit;
 use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::keep_out::{self, KeepOut};
 use crate::toolpath::composition::{along, mcl_end_materials};
-use crate::toolpath::meander::{band_at, meander, opening_stroke, road_at, too_wide, Fan, Strokes};
+use crate::toolpath::meander::{
+    band_at, meander, opening_stroke, road_at, too_wide, Band, Fan, Strokes,
+};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 use heapless::Vec;
@@ -30,55 +32,104 @@ pub(super) struct Strip<'a> {
 }
 
 /// Shortest strip a meander lays beside its MCL's end, in road widths: a stroke's end nearer
-/// the MCL than this leaves no strip worth a turn.
+/// the MCL than this leaves no strip worth a turn. On the random bench's first 40 slices the
+/// zigzag's mean coverage and overfill move by at most 0.0001 between 0.1, 0.25 and 0.5.
 const STRIP_MIN: f32 = 0.25;
 
-impl Strip<'_> {
-    /// How far along the strip (from the end) the road lays it, for a stroke's end at `tip`
-    /// beside it; `None` where `tip` lies on the other side of the MCL's end, or nearer it
-    /// than [`STRIP_MIN`].
-    fn span(&self, slice: &Slice, tip: Point) -> Option<f32> {
-        let w = slice.settings().road_width;
-        let s = self.curve.param_of(tip);
-        let ahead = if self.forward {
-            self.curve.wrap(s - self.param)
+impl<'a> Strip<'a> {
+    /// The bare stretch beside end `id` ([`Arcs::bare_beside`]), unless `id` leads into a
+    /// splice's inner arc (whose outer arc shares the strip there).
+    pub(super) fn beside(
+        arcs: &Arcs,
+        ends: &Ends,
+        curves: &'a [KeepOut<'a>],
+        id: u16,
+    ) -> Option<Strip<'a>> {
+        if inner_end(ends, curves, id) {
+            return None;
+        }
+        let (forward, reach) = arcs.bare_beside(ends, curves, id)?;
+        let c = ends.curve[id as usize] as usize;
+        Some(Strip {
+            curve: &curves[c],
+            c,
+            param: ends.param[id as usize],
+            forward,
+            reach,
+        })
+    }
+
+    /// The curve's parameter `d` along the strip from the end.
+    fn param_at(&self, d: f32) -> f32 {
+        if self.forward {
+            self.param + d
         } else {
-            self.curve.wrap(self.param - s)
-        };
-        let d = ahead.fmin(self.reach - 0.5 * w);
-        (ahead < 0.5 * self.curve.length() && d >= STRIP_MIN * w).then_some(d)
+            self.param - d
+        }
     }
 
     /// The curve's point `d` along the strip from the end.
     fn toward(&self, d: f32) -> Point {
-        self.curve.at(if self.forward {
-            self.param + d
-        } else {
-            self.param - d
-        })
+        self.curve.at(self.param_at(d))
     }
 
-    /// Lays the strip between `d` along it and the end, toward the end (`inward`) or away
-    /// from it, the end's own point left out (the MCL lays it).
+    /// Arriving at the end from a meander's last stroke, whose end is at `tip`: lays the strip
+    /// from beside `tip` in to the end (the end's own point left out: the MCL lays it), if
+    /// `tip` lies on the strip's side at least [`STRIP_MIN`] from the end. Returns whether it
+    /// laid it.
+    fn lay_in(&self, slice: &Slice, tip: Point, sink: &mut impl PathSink) -> Result<bool, Error> {
+        let s = self.curve.param_of(tip);
+        let ahead = self.curve.wrap(if self.forward {
+            s - self.param
+        } else {
+            self.param - s
+        });
+        if ahead >= 0.5 * self.curve.length() {
+            return Ok(false);
+        }
+        self.lay(slice, ahead, true, sink)
+    }
+
+    /// Leaving the end (on the MCL at `p`) into a meander whose first stroke's band is `band`:
+    /// lays the strip out to the stroke's end on its side, if that stands at least
+    /// [`STRIP_MIN`] from the end. Returns whether the strip lies on the band's left, if it
+    /// laid it.
+    fn lay_out(
+        &self,
+        slice: &Slice,
+        p: Point,
+        (left_n, left, right): Band,
+        sink: &mut impl PathSink,
+    ) -> Result<Option<bool>, Error> {
+        let w = slice.settings().road_width;
+        let on_left = (self.toward(w) - p).dot(left_n) >= 0.0;
+        let half = 0.5 * if on_left { left } else { right };
+        Ok(self.lay(slice, half, false, sink)?.then_some(on_left))
+    }
+
+    /// Lays the strip between `d` along it (at most its share, less the round end's half road)
+    /// and the end, toward the end (`inward`) or away from it, the end's own point left out;
+    /// nothing where that is shorter than [`STRIP_MIN`]. Returns whether it laid it.
     fn lay(
         &self,
         slice: &Slice,
         d: f32,
         inward: bool,
         sink: &mut impl PathSink,
-    ) -> Result<(), Error> {
-        let far = if self.forward {
-            self.param + d
-        } else {
-            self.param - d
-        };
+    ) -> Result<bool, Error> {
+        let w = slice.settings().road_width;
+        let d = d.fmin(self.reach - 0.5 * w);
+        if d < STRIP_MIN * w {
+            return Ok(false);
+        }
+        let far = self.param_at(d);
         let (s0, s1, forward) = if inward {
             (far, self.param, !self.forward)
         } else {
             (self.param, far, self.forward)
         };
         let material = slice.material_at(self.c);
-        let width = slice.settings().road_width - 2.0 * EDGE_MARGIN;
+        let width = w - 2.0 * EDGE_MARGIN;
         let mut out = Ok(());
         self.curve.arc(s0, s1, forward, |at, s| {
             let off = self.curve.wrap(s - self.param);
@@ -93,7 +144,7 @@ impl Strip<'_> {
                 out = emit_move(slice, sink, v);
             }
         });
-        out
+        out.map(|()| true)
     }
 }
 
@@ -147,9 +198,9 @@ pub(super) fn emit_mcl(
     // A point on the bare strip beside the far end, if any: a meander's run reaching that end
     // ends on its side ([`meander`]).
     let closing = strips[1].map(|strip| strip.toward(w));
-    // Whether a strip beside an end was laid: the extra stops there are not.
-    let mut stripped = false;
     for step in 0..n {
+        // Whether a strip beside this end was laid: the extra stops there are not.
+        let mut stripped = false;
         let i = order(step);
         let dir = pts[(i + 1).min(n - 1)] - pts[i.saturating_sub(1)];
         let is_end = step == 0 || step + 1 == n;
@@ -173,10 +224,7 @@ pub(super) fn emit_mcl(
             // A meander reaching the far end beside a bare strip lays the strip from its
             // stroke's end on that side, on to the end.
             if let (Some(strip), Some(tip)) = (strips[1], strokes.tip()) {
-                if let Some(d) = strip.span(slice, tip) {
-                    strip.lay(slice, d, true, sink)?;
-                    stripped = true;
-                }
+                stripped = strip.lay_in(slice, tip, sink)?;
             }
         }
         for (k, &(p, dir, at_cum, is_end)) in stops.iter().enumerate() {
@@ -246,32 +294,19 @@ pub(super) fn emit_mcl(
             if step == 0 && k == 0 && n >= 2 {
                 // A meander leaving the first end beside a bare strip: the road lays the strip
                 // out to where the first stroke's end on that side stands, and starts there.
-                if let Some(strip) = strips[0] {
-                    let start = opening_stroke(
-                        slice,
-                        plan,
-                        (&pts[..], &cum[..n]),
-                        forward,
-                        fan,
-                        &mut strokes,
-                    );
-                    if let Some((left_n, left, right)) = start {
-                        let probe = strip.toward(w);
-                        let on_left = (probe - p).dot(left_n) >= 0.0;
-                        let half = 0.5 * if on_left { left } else { right };
-                        let d = half.fmin(strip.reach - 0.5 * w);
-                        if d >= STRIP_MIN * w {
-                            strip.lay(slice, d, false, sink)?;
-                            strokes.right_first = !on_left;
-                            strokes.opened = true;
-                            stripped = true;
-                        }
+                let opening = strips[0].and_then(|strip| {
+                    let walk = (&pts[..], &cum[..n]);
+                    let band = opening_stroke(slice, plan, walk, forward, fan, &mut strokes)?;
+                    Some((strip, band))
+                });
+                if let Some((strip, band)) = opening {
+                    if let Some(on_left) = strip.lay_out(slice, p, band, sink)? {
+                        strokes.right_first = !on_left;
+                        strokes.opened = true;
+                        stripped = true;
                     }
                 }
             }
-        }
-        if step == 0 {
-            stripped = false;
         }
         if step + 1 < n {
             let j = order(step + 1);
