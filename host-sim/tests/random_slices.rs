@@ -183,11 +183,13 @@ fn the_zigzag_bends_round_a_holes_tip_in_one_road() {
 /// splicing). The slices were 134, 153 and 225 (travel 4.1, 1.2 and 20 mm) until strong fans
 /// took more halves (`mcl::insert::FAN_END_GAP_PER_ROAD`) and left them one piece, then 105,
 /// 230 and 231 until strong fans kept halves that crowd for up to 12 road widths
-/// (`CROWDED_ROADS`) and left those one piece; of seeds 1-300 these are the ones that bridge
+/// (`CROWDED_ROADS`) and left those one piece, then 32, 137 and 254 until MCL ends were
+/// relaxed to three quarters of a road apart instead of a whole road
+/// (`defaults::RELAX_SPACING_PER_ROAD`); of seeds 1-300, 10, 107, 162, 173, 261 and 269 bridge
 /// now.
 #[test]
 fn the_zigzag_joins_pieces_apart_across_a_stretch_of_the_curve_they_share() {
-    for seed in [32, 137, 254] {
+    for seed in [10, 107, 162] {
         let (m, l, what) = measured(seed, 0);
         assert_eq!(m.starts, 1, "{what}");
         assert!(

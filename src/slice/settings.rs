@@ -34,7 +34,7 @@ pub struct Settings {
     /// skips the smoothing, the final spacing guarantee still holds.
     pub relax_iterations: u8,
     /// `relax_spacing`: the least distance between MCL ends on the cell boundary after
-    /// relaxation, mm (default 1 road width).
+    /// relaxation, mm (default 0.75 road widths).
     pub relax_spacing: f32,
     /// `min_width`: the narrowest road a layer may deposit, mm (default 0.5 road widths; at
     /// most the road width). Where neighbouring roads converge, a road narrows to their
@@ -62,7 +62,7 @@ impl Settings {
             delta: defaults::DELTA_PER_ROAD * road_width,
             mcl_spacing: defaults::MCL_SPACING_PER_ROAD * road_width,
             relax_iterations: defaults::RELAX_ITERATIONS,
-            relax_spacing: road_width,
+            relax_spacing: defaults::RELAX_SPACING_PER_ROAD * road_width,
             min_width: defaults::MIN_WIDTH_PER_ROAD * road_width,
             max_width: defaults::MAX_WIDTH_PER_ROAD * road_width,
             simplify_tolerance: defaults::SIMPLIFY_TOLERANCE.fmin(0.1 * road_width),

@@ -91,6 +91,14 @@ impl<S: PathSink> PathSink for Despike<'_, S> {
             if let Some(a) = self.inner.last_vertex() {
                 if self.is_spike(&a, &b, &c) {
                     self.dropped += 1;
+                    // A spike that ran out and straight back to `a` leaves `a -> c` a move
+                    // of no length: wider than `a`, a disc over the roads beside it (a
+                    // splice's arc ending on a narrow MCL end, random slice 7). It keeps
+                    // `a`'s width.
+                    let mut c = c;
+                    if c.at == a.at && c.width > a.width {
+                        c.width = a.width;
+                    }
                     self.pending = Some(c);
                     return Ok(());
                 }
