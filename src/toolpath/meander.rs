@@ -260,8 +260,8 @@ pub(super) fn meander(
     // last a road from its ends ([`Grid::new`]), whatever the spacing of its vertices: a move
     // shorter than a road holds one stroke or none, a long one several.
     let step = if sb > sa { 1.0 } else { -1.0 };
-    let grid = Grid::new(w, mcl, len, step);
-    let (offset, spacing, count) = (grid.offset, grid.spacing, grid.count as f32);
+    let grid = Grid::new(slice, plan, fan, mcl, len, step);
+    let (offset, spacing, count) = (grid.at.offset, grid.at.spacing, grid.at.count as f32);
     let dir = b - a;
     // The strokes on this move, in walking order: from `sa` (included) toward `sb`.
     let first = if sb > sa {
@@ -281,8 +281,8 @@ pub(super) fn meander(
         let q = a.lerp(b, t);
         // A stroke only in a run of `MIN_STROKES`: fewer lap back over the road either side
         // more than they fill.
-        let raw = grid.band(slice, plan, fan, &mut state.bands, k as i32);
-        let band = raw.filter(|_| grid.in_run(slice, plan, fan, &mut state.bands, k as i32));
+        let raw = grid.band(&mut state.bands, k as i32);
+        let band = raw.filter(|_| grid.in_run(&mut state.bands, k as i32));
         if band.is_some() && state.last.is_none() {
             // A run of strokes starts. If it runs on to the walk's end, where a bare strip
             // lies beside the MCL's end on the side of `closing`, it starts on the side that
@@ -290,8 +290,8 @@ pub(super) fn meander(
             // walk's start starts beside that strip instead.
             if state.opened {
                 state.opened = false;
-            } else if let Some(right) = closing
-                .and_then(|at| grid.closing_side(slice, plan, fan, &mut state.bands, k as i32, at))
+            } else if let Some(right) =
+                closing.and_then(|at| grid.closing_side(&mut state.bands, k as i32, at))
             {
                 state.right_first = right;
             }
@@ -346,9 +346,9 @@ pub(super) fn meander(
 /// 25; runs of 3, 0.9708 and 0.0345, 24.
 const MIN_STROKES: i32 = 3;
 
-/// The grid a meander's strokes stand on along one MCL: `count` samples `spacing` apart,
+/// The samples a meander's strokes stand on along one MCL: `count` of them `spacing` apart,
 /// the `k`-th at arc length `offset + k spacing` from the MCL's `from` end.
-struct Grid<'a> {
+struct Samples<'a> {
     /// The MCL's points from its `from` end, and the arc length at each.
     mcl: (&'a [Point], &'a [f32]),
     offset: f32,
@@ -359,12 +359,12 @@ struct Grid<'a> {
     walk: f32,
 }
 
-impl<'a> Grid<'a> {
-    /// The grid along an MCL of length `len` (roads `w` wide), walked from its `from` end
-    /// (`walk` 1) or toward it (-1): its first and last samples stand a road (and the edge
-    /// margins) from its ends, the others evenly between, at most a road apart. A stroke a road
-    /// from a keep-out curve lies beside the curve's strip, its edge on the strip's.
-    fn new(w: f32, mcl: (&'a [Point], &'a [f32]), len: f32, walk: f32) -> Grid<'a> {
+impl<'a> Samples<'a> {
+    /// The samples along an MCL of length `len` (roads `w` wide), walked from its `from` end
+    /// (`walk` 1) or toward it (-1): the first and last stand a road (and the edge margins)
+    /// from its ends, the others evenly between, at most a road apart. A stroke a road from a
+    /// keep-out curve lies beside the curve's strip, its edge on the strip's.
+    fn new(w: f32, mcl: (&'a [Point], &'a [f32]), len: f32, walk: f32) -> Samples<'a> {
         // A stroke keeps its edge a road and two edge margins off the feature ([`stroke_ends`]):
         // its centre a road off the keep-out curve (half a road off the feature) and two more
         // margins clears that for any stroke no wider than a road, a hair to spare.
@@ -377,7 +377,7 @@ impl<'a> Grid<'a> {
         } else {
             w
         };
-        Grid {
+        Samples {
             mcl,
             offset,
             spacing,
@@ -392,59 +392,77 @@ impl<'a> Grid<'a> {
         let (q, dir) = polyline::point_along(pts, cum, self.offset + k as f32 * self.spacing);
         (q, dir * self.walk)
     }
+}
+
+/// The grid a meander's strokes stand on along one MCL: its [`Samples`], and what the band
+/// at each is measured against.
+struct Grid<'a> {
+    at: Samples<'a>,
+    slice: &'a Slice,
+    plan: &'a Plan,
+    fan: &'a Fan<'a>,
+}
+
+impl<'a> Grid<'a> {
+    /// The grid along an MCL ([`Samples::new`], at the slice's road width).
+    fn new(
+        slice: &'a Slice,
+        plan: &'a Plan,
+        fan: &'a Fan<'a>,
+        mcl: (&'a [Point], &'a [f32]),
+        len: f32,
+        walk: f32,
+    ) -> Grid<'a> {
+        let at = Samples::new(slice.settings().road_width, mcl, len, walk);
+        Grid {
+            at,
+            slice,
+            plan,
+            fan,
+        }
+    }
 
     /// The band at sample `k` ([`band_at`], along the walk; none beyond the MCL), measured
     /// once: asked while a neighbour's run is counted, it is kept for the walk's arrival.
-    fn band(
-        &self,
-        slice: &Slice,
-        plan: &Plan,
-        fan: &Fan<'_>,
-        seen: &mut Seen,
-        k: i32,
-    ) -> Option<Band> {
-        if k < 0 || k >= self.count {
+    fn band(&self, seen: &mut Seen, k: i32) -> Option<Band> {
+        if k < 0 || k >= self.at.count {
             return None;
         }
         if let Some(band) = seen.get(k) {
             return band;
         }
-        let (q, dir) = self.sample(k);
-        let band = band_at(slice, plan, q, dir, fan);
+        let (q, dir) = self.at.sample(k);
+        let band = band_at(self.slice, self.plan, q, dir, self.fan);
         seen.put(k, band);
         band
     }
 
     /// Whether the band at sample `k` is too wide ([`too_wide`]).
-    fn wide(&self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, seen: &mut Seen, k: i32) -> bool {
-        too_wide(slice, self.band(slice, plan, fan, seen, k))
+    fn wide(&self, seen: &mut Seen, k: i32) -> bool {
+        too_wide(self.slice, self.band(seen, k))
     }
 
     /// For a run of strokes starting at sample `k`: the side its first stroke starts on (right:
     /// `true`) for its last to end on the side of point `at`, if the run reaches the walk's
     /// last sample (every sample from `k` on too wide).
-    fn closing_side(
-        &self,
-        slice: &Slice,
-        plan: &Plan,
-        fan: &Fan<'_>,
-        seen: &mut Seen,
-        k: i32,
-        at: Point,
-    ) -> Option<bool> {
-        let last = if self.walk > 0.0 { self.count - 1 } else { 0 };
-        let step = if self.walk > 0.0 { 1 } else { -1 };
+    fn closing_side(&self, seen: &mut Seen, k: i32, at: Point) -> Option<bool> {
+        let last = if self.at.walk > 0.0 {
+            self.at.count - 1
+        } else {
+            0
+        };
+        let step = if self.at.walk > 0.0 { 1 } else { -1 };
         let mut strokes = 1;
         let mut j = k;
         while j != last {
             j += step;
-            if !self.wide(slice, plan, fan, seen, j) {
+            if !self.wide(seen, j) {
                 return None;
             }
             strokes += 1;
         }
-        let (q, _) = self.sample(last);
-        let (left_n, _, _) = self.band(slice, plan, fan, seen, last)?;
+        let (q, _) = self.at.sample(last);
+        let (left_n, _, _) = self.band(seen, last)?;
         let end_right = (at - q).dot(left_n) < 0.0;
         // Each stroke crosses to the other side: an even number ends where it started.
         Some(if strokes % 2 == 0 {
@@ -456,11 +474,11 @@ impl<'a> Grid<'a> {
 
     /// Whether sample `k` (too wide) lies in a run of at least [`MIN_STROKES`] samples too
     /// wide.
-    fn in_run(&self, slice: &Slice, plan: &Plan, fan: &Fan<'_>, seen: &mut Seen, k: i32) -> bool {
+    fn in_run(&self, seen: &mut Seen, k: i32) -> bool {
         let mut run = 1;
         for step in [-1, 1] {
             let mut j = k + step;
-            while run < MIN_STROKES && self.wide(slice, plan, fan, seen, j) {
+            while run < MIN_STROKES && self.wide(seen, j) {
                 run += 1;
                 j += step;
             }
@@ -533,15 +551,10 @@ pub(super) fn opening_stroke(
     if len < 1e-6 {
         return None;
     }
-    let grid = Grid::new(
-        slice.settings().road_width,
-        mcl,
-        len,
-        if forward { 1.0 } else { -1.0 },
-    );
-    let k = if forward { 0 } else { grid.count - 1 };
-    let band = grid.band(slice, plan, fan, &mut state.bands, k);
-    band.filter(|_| too_wide(slice, band) && grid.in_run(slice, plan, fan, &mut state.bands, k))
+    let grid = Grid::new(slice, plan, fan, mcl, len, if forward { 1.0 } else { -1.0 });
+    let k = if forward { 0 } else { grid.at.count - 1 };
+    let band = grid.band(&mut state.bands, k);
+    band.filter(|_| too_wide(slice, band) && grid.in_run(&mut state.bands, k))
 }
 
 impl Strokes {
@@ -796,7 +809,7 @@ mod tests {
             Point::new(2.0, 1.0),
         ];
         let cum = [0.0, 2.0, 3.0];
-        let grid = Grid {
+        let grid = Samples {
             mcl: (&pts, &cum),
             offset: 0.25,
             spacing: 0.5,
