@@ -283,8 +283,9 @@ pub(super) fn meander(
         // more than they fill.
         let raw = grid.band(&mut state.bands, k as i32);
         let band = raw.filter(|_| grid.in_run(&mut state.bands, k as i32));
-        if band.is_some() && state.last.is_none() {
-            // A run of strokes starts. If it runs on to the walk's end, where a bare strip
+        if too_wide(slice, band) && state.last.is_none() {
+            // A run of strokes starts (a sample whose band is not too wide lies in a run
+            // between its neighbours' strokes but lays none). If it runs on to the walk's end, where a bare strip
             // lies beside the MCL's end on the side of `closing`, it starts on the side that
             // makes its last stroke end there; the first run after a strip laid at the
             // walk's start starts beside that strip instead.
