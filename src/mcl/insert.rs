@@ -24,8 +24,13 @@ use crate::slice::Nearest;
 use crate::stats::PlanStats;
 use crate::{Error, FeatureId, Limit, Slice};
 
-/// Largest distance between the far ends of neighbouring halves, in road widths.
-const MAX_END_GAP_PER_ROAD: f32 = 1.9;
+/// Largest distance between the far ends of neighbouring halves, in road widths. Halves
+/// inserted where ends part more than this crowd at their hole, and their roads overlap there;
+/// since crowded pairs turn short of the hole in the zigzag (`toolpath::zigzag::turns`) that
+/// costs little: on the random bench's 200 slices 1.9 (before) gave 186 zigzags that meet the
+/// bar (coverage 0.9798, overfill 0.0271 on average, without turns at splices), 1.5 gave 187
+/// (0.9806, 0.0281), 1.3 gave 181 (0.9797, 0.0305).
+const MAX_END_GAP_PER_ROAD: f32 = 1.5;
 // `Half::depth` is a `u8`.
 const _: () = assert!(MAX_REFINE_DEPTH <= u8::MAX as u32);
 /// The least gap between two neighbouring starts a half is inserted into, in narrowest roads

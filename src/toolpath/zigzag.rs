@@ -31,9 +31,11 @@
 
 mod emit;
 mod ends;
+mod turns;
 
 use emit::{emit_arc, emit_mcl, inner_end, Strip};
 use ends::{end_point, even_out, find, open_pieces, Arcs, Ends};
+use turns::{cut_turns, is_cut, Cuts};
 
 use super::despike::{finish, Despike};
 use super::lining::Lining;
@@ -85,6 +87,8 @@ pub struct ZigzagStats {
     pub bridges: u16,
     /// MCLs left out to fix the parity of the curves.
     pub dropped: u16,
+    /// Pairs of MCLs that turn short of a hole where they crowd (`turns`).
+    pub turns: u16,
 }
 
 /// Writes the zigzag layer of `plan` into `sink`, spikes dropped
@@ -255,7 +259,12 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
         chunks: &chunks,
         near: &near,
         bare: Some(&bare),
+        cut: &[],
     };
+    // Pairs that crowd at a hole turn short of it ([`turns`]).
+    let mut cuts = Cuts::new();
+    stats.turns = cut_turns(slice, plan, &ends, &fan, &mut cuts)?;
+    let fan = Fan { cut: &cuts, ..fan };
 
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces
     // (which reach no keep-out curve in common, [`splice_across`]), travel to the nearest end
@@ -292,10 +301,16 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
                 ..fan
             };
             // In walking order: the end it starts from, then the other.
-            let spliced = [id, id ^ 1]
-                .map(|e| inner_end(&ends, &curves, e).then_some(ends.curve[e as usize] as usize));
+            let spliced = [id, id ^ 1].map(|e| {
+                (!is_cut(&cuts, e) && inner_end(&ends, &curves, e))
+                    .then_some(ends.curve[e as usize] as usize)
+            });
             // The bare stretches beside its ends, which a meander reaching them lays.
-            let strips = [id, id ^ 1].map(|e| Strip::beside(&arcs, &ends, &curves, e));
+            let strips = [id, id ^ 1].map(|e| {
+                (!is_cut(&cuts, e))
+                    .then(|| Strip::beside(&arcs, &ends, &curves, e))
+                    .flatten()
+            });
             visited[id as usize] = true;
             let other = id ^ 1;
             visited[other as usize] = true;
@@ -308,8 +323,11 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
                 break;
             };
             // Along the curve from `other` to `mate`.
-            let c = ends.curve[other as usize] as usize;
-            emit_arc(slice, &ends, &curves[c], c, other, mate, sink)?;
+            // (A short turn: the next MCL's first move lays it.)
+            if !is_cut(&cuts, other) {
+                let c = ends.curve[other as usize] as usize;
+                emit_arc(slice, &ends, &curves[c], c, (other, mate), &cuts, sink)?;
+            }
             id = mate;
         }
     }

@@ -4,7 +4,7 @@
 use heapless::Vec;
 
 use super::probe::{meet_with, negated, products, touch_with};
-use super::{Fan, CHUNK};
+use super::{laid_segments, Fan, CHUNK};
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, primitives, Point};
 use crate::toolpath::zigzag::EDGE_MARGIN;
@@ -134,21 +134,17 @@ impl Near {
                 if polygon::bbox_distance2(fan.boxes[i], centre) > r2 {
                     continue;
                 }
-                let mut pts = plan.points_iter(&plan.mcls[m as usize]);
-                let Some(mut prev) = pts.next() else {
-                    continue;
-                };
-                for q in pts {
-                    let seg = [prev, q];
-                    prev = q;
-                    if !segment_box_within(seg, centre, r2) {
-                        continue;
+                let mut full = false;
+                laid_segments(plan, fan, i, |seg| {
+                    if segment_box_within(seg, centre, r2) && self.segs.push((seg, m)).is_err() {
+                        full = true;
                     }
-                    if self.segs.push((seg, m)).is_err() {
-                        self.segs.clear();
-                        self.edges.clear();
-                        return;
-                    }
+                    !full
+                });
+                if full {
+                    self.segs.clear();
+                    self.edges.clear();
+                    return;
                 }
             }
         }
@@ -409,6 +405,7 @@ mod tests {
                     chunks: &chunks,
                     near: &near,
                     bare: None,
+                    cut: &[],
                 };
                 let pts = plan.points(&plan.mcls[k as usize]);
                 for seg in pts.windows(2) {

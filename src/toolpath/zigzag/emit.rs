@@ -2,17 +2,19 @@
 //! fan outgrows the widest road), and the arcs along the keep-out curves between MCL ends.
 
 use super::ends::{Arcs, Ends};
+use super::turns::is_cut;
 use super::{EDGE_MARGIN, END_STEPS, NONE};
+use crate::config::MCL_POINTS;
 use crate::error::Limit;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::Point;
+use crate::geometry::{polyline, Point};
 use crate::keep_out::{self, KeepOut};
 use crate::toolpath::composition::{along, mcl_end_materials};
 use crate::toolpath::meander::{
     band_at, meander, opening_stroke, road_at, too_wide, Band, Fan, Strokes,
 };
 use crate::toolpath::{emit_move, PathSink, Vertex};
-use crate::{Error, Plan, Slice};
+use crate::{Error, Material, Plan, Slice};
 use heapless::Vec;
 
 /// A stretch of keep-out curve beside an MCL's end that no arc lays
@@ -165,8 +167,14 @@ pub(super) fn emit_mcl(
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
     let w = slice.settings().road_width;
-    let pts = plan.points(&plan.mcls[k]);
     let (ma, mb) = mcl_end_materials(slice, plan, k);
+    // The stretch of it the road lays (a short turn cuts an end back, `turns`), and the
+    // materials at its ends.
+    let (pts, ma, mb) = laid_stretch(
+        plan.points(&plan.mcls[k]),
+        fan.cut.get(fan.at as usize),
+        (ma, mb),
+    )?;
     // Arc length at every vertex, summed from the `from` end either way, so both ends carry
     // exactly their feature's material.
     let mut cum = [0.0f32; crate::config::MCL_POINTS];
@@ -325,6 +333,36 @@ pub(super) fn emit_mcl(
         }
     }
     Ok(())
+}
+
+/// The stretch of an MCL (its points `whole`) between the arc lengths `cut` from its `from`
+/// end ([`Fan::cut`], the whole MCL where `None`), and the materials there of the blend
+/// between its ends' `materials`.
+fn laid_stretch(
+    whole: Vec<Point, MCL_POINTS>,
+    cut: Option<&(f32, f32)>,
+    (ma, mb): (Material, Material),
+) -> Result<(Vec<Point, MCL_POINTS>, Material, Material), Error> {
+    let Some(&(lo, hi)) = cut.filter(|&&(lo, hi)| lo > 0.0 || hi < f32::INFINITY) else {
+        return Ok((whole, ma, mb));
+    };
+    // Vertices nearer a cut than this are left out (the cut's point stands for them).
+    const NEAR: f32 = 1e-4;
+    let len = polyline::length(&whole);
+    let hi = hi.fmin(len);
+    let mut out = Vec::new();
+    // Never full: at most as many points as the MCL's.
+    let full = |_| Limit::PathVertices.error();
+    out.push(polyline::point_at(&whole, lo)).map_err(full)?;
+    let mut s = 0.0;
+    for j in 1..whole.len().saturating_sub(1) {
+        s += whole[j - 1].dist(whole[j]);
+        if s > lo + NEAR && s < hi - NEAR {
+            out.push(whole[j]).map_err(full)?;
+        }
+    }
+    out.push(polyline::point_at(&whole, hi)).map_err(full)?;
+    Ok((out, along(&ma, &mb, lo, len), along(&ma, &mb, hi, len)))
 }
 
 /// How far before and after the inner arc's ends a splice's outer arc runs on the nearer line,
@@ -496,14 +534,23 @@ pub(super) fn emit_arc(
     ends: &Ends,
     curve: &KeepOut<'_>,
     c: usize,
-    from: u16,
-    to: u16,
+    (from, to): (u16, u16),
+    cuts: &[(f32, f32)],
     sink: &mut impl PathSink,
 ) -> Result<(), Error> {
     let w = slice.settings().road_width;
     let material = slice.material_at(c);
     let (s0, s1) = (ends.param[from as usize], ends.param[to as usize]);
-    let (forward, role) = arc_of(ends, curve, c, from, to);
+    let (forward, role) = match arc_of(ends, curve, c, from, to) {
+        // A splice's outer arc whose inner pair turns short (`turns`) has the stretch to
+        // itself.
+        (forward, Arc::Outer(..))
+            if is_cut(cuts, ends.beside(from, if forward { 1 } else { -1 })) =>
+        {
+            (forward, Arc::Plain)
+        }
+        role => role,
+    };
     let vertex = |at: Point, width: f32| Vertex {
         at,
         material,
@@ -609,4 +656,44 @@ pub(super) fn emit_arc(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cut_mcl_lays_the_stretch_between_its_cuts_in_the_blend_there() {
+        // An L: 2 mm along x, then 2 mm along y; from material a to material b.
+        let whole: Vec<Point, MCL_POINTS> = [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (2.0, 2.0)]
+            .iter()
+            .map(|&(x, y)| Point::new(x, y))
+            .collect();
+        let (a, b) = ([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]);
+        // Uncut: the MCL as it is.
+        let (pts, ma, mb) = laid_stretch(whole.clone(), None, (a, b)).unwrap();
+        assert_eq!((&pts[..], ma, mb), (&whole[..], a, b));
+        let (pts, ..) = laid_stretch(whole.clone(), Some(&(0.0, f32::INFINITY)), (a, b)).unwrap();
+        assert_eq!(&pts[..], &whole[..]);
+        // Cut 0.5 mm from the start and 1 mm from the end: from (0.5, 0) to (2, 1), the
+        // vertex at (1, 0) kept, and the blend an eighth and three quarters of the way.
+        let (pts, ma, mb) = laid_stretch(whole.clone(), Some(&(0.5, 3.0)), (a, b)).unwrap();
+        let want = [(0.5, 0.0), (1.0, 0.0), (2.0, 0.0), (2.0, 1.0)];
+        assert_eq!(pts.len(), want.len());
+        for (p, &(x, y)) in pts.iter().zip(&want) {
+            assert!(p.dist(Point::new(x, y)) < 1e-6, "{p:?}");
+        }
+        assert!(
+            (ma[0] - 0.875).abs() < 1e-6 && (ma[1] - 0.125).abs() < 1e-6,
+            "{ma:?}"
+        );
+        assert!(
+            (mb[0] - 0.25).abs() < 1e-6 && (mb[1] - 0.75).abs() < 1e-6,
+            "{mb:?}"
+        );
+        // A cut at a vertex leaves it out (the cut's point stands for it).
+        let (pts, ..) = laid_stretch(whole, Some(&(1.0, f32::INFINITY)), (a, b)).unwrap();
+        assert_eq!(pts.len(), 3);
+        assert!(pts[0].dist(Point::new(1.0, 0.0)) < 1e-6);
+    }
 }

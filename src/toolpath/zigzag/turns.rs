@@ -1,0 +1,218 @@
+//! Short turns: where MCLs crowd at a hole, two that an arc joins there turn out in the field.
+//!
+//! Round a small hole in a large cell the MCLs fan out: to keep their roads within the widest
+//! road far out, halves start a quarter road apart at the hole (`mcl::insert`'s strong fans),
+//! where every road, however narrow, lies over its neighbours until the field parts them, a
+//! needle of doubled ground a hole's radius long beside each. Two MCLs whose ends an arc joins
+//! at the hole need not reach it: the road runs in along one only until it has room beside
+//! it, turns across to the other and runs out along that one, and the two roads either side
+//! of the pair widen into the ground the pair left (their bands reach each other there,
+//! [`laid_segments`](crate::toolpath::meander)). The pieces and pairings do not change: a
+//! short turn lays the same road as the arc it replaces, only nearer the wall.
+//!
+//! Walking out from the hole along both MCLs of a pair a quarter road at a time, the pair turns
+//! at the last step where one of the four gaps around it (between the MCL beside it and each of
+//! its MCLs, and between its two) is still narrower than the narrowest road
+//! ([`min_width`](crate::Settings::min_width)) and the two MCLs beside it are at most three
+//! quarters of the widest road apart ([`max_width`](crate::Settings::max_width),
+//! [`SPAN_PER_MAX_WIDTH`]), so their roads fill what the pair leaves; it turns short only if
+//! that is at least a road out. The MCLs beside the pair must reach the hole: two neighbouring
+//! pairs never both turn short (between the two MCLs left beside them the ground would be
+//! wider than two roads). A splice's inner pair may turn short too: the outer arc then runs
+//! alone along the curve beneath it.
+
+use heapless::Vec;
+
+use super::ends::Ends;
+use super::NONE;
+use crate::config::MAX_MCLS;
+use crate::geometry::primitives::MinMax;
+use crate::geometry::{polyline, Point};
+use crate::toolpath::meander::near::Near;
+use crate::toolpath::meander::{band_at, Fan};
+use crate::{Error, Limit, Plan, Slice};
+
+/// The stretch of each MCL laid that its road lays, by arc length from its `from` end
+/// ([`Fan::cut`]), in the order of the MCLs laid.
+pub(super) type Cuts = Vec<(f32, f32), MAX_MCLS>;
+
+/// The step, in road widths, at which a pair's MCLs are walked out from the hole.
+const STEP_PER_ROAD: f32 = 0.25;
+/// How far out from the hole, in road widths, a pair may turn: beyond, its MCLs lay their
+/// crowded stretch (a fan that parts them so slowly leaves a wedge wider than a road between
+/// the MCLs beside it long before).
+const MAX_TURN_ROADS: f32 = 12.0;
+/// How far out from the hole, in road widths, a pair must turn to turn short at all.
+const MIN_TURN_ROADS: f32 = 1.0;
+/// How far apart, in widest roads, the MCLs beside a pair may be where it turns short. Their
+/// roads each fill their half of it, each as wide as its band up to the widest road, but
+/// their bands are measured along normals that cross the ground beneath the turn aslant, and a
+/// wedge of it a tenth of a road wide was left bare beside each turn at the whole widest road.
+/// On the random bench's 200 slices (with the rest of this change): 0.75 gave 187 zigzags
+/// that meet the bar (coverage 0.9803, overfill 0.0251 on average), 0.9 gave 182 (0.9793,
+/// 0.0225); a rule that asked whether each road's band, with the gap beyond it, reaches its
+/// half (up to the widest road each side) turned more pairs short and bared more (on the first
+/// 40 slices coverage 0.9773, overfill 0.0217, 33 met the bar, 37 with 0.75).
+const SPAN_PER_MAX_WIDTH: f32 = 0.75;
+
+/// Whether end `id` (of the `id / 2`-th MCL laid) is cut back.
+pub(super) fn is_cut(cuts: &[(f32, f32)], id: u16) -> bool {
+    cuts.get((id / 2) as usize).is_some_and(|&(lo, hi)| {
+        if id % 2 == 0 {
+            lo > 0.0
+        } else {
+            hi < f32::INFINITY
+        }
+    })
+}
+
+/// Cuts back the ends of the pairs of MCLs that turn short at the holes (into `cuts`, one
+/// entry per MCL laid); `fan` the MCLs laid, whose disk of near segments is emptied after each
+/// cut. Returns how many pairs turn short.
+pub(super) fn cut_turns(
+    slice: &Slice,
+    plan: &Plan,
+    ends: &Ends,
+    fan: &Fan<'_>,
+    cuts: &mut Cuts,
+) -> Result<u16, Error> {
+    cuts.clear();
+    for _ in 0..ends.mcls.len() {
+        // Never full: one entry per MCL laid, of the same capacity.
+        cuts.push((0.0, f32::INFINITY))
+            .map_err(|_| Limit::Mcls.error())?;
+    }
+    let holes = slice.holes().len();
+    let mut turns = 0u16;
+    for c in 0..holes {
+        let (lo, hi) = ends.ranges[c];
+        let n = (hi - lo) as usize;
+        if n < 4 {
+            continue;
+        }
+        for k in 0..n {
+            let b = ends.order[lo as usize + k];
+            let e = ends.arc[b as usize];
+            if e == NONE || ends.beside(b, 1) != e {
+                continue;
+            }
+            // The pair (b, e), neighbours along the curve; a before it, d after it.
+            let (a, d) = (ends.beside(b, -1), ends.beside(e, 1));
+            if is_cut(cuts, a) || is_cut(cuts, d) || is_cut(cuts, b) || is_cut(cuts, e) {
+                continue;
+            }
+            if let Some((sb, se)) = turn(slice, plan, ends, fan, cuts, b, e) {
+                for (id, s) in [(b, sb), (e, se)] {
+                    let i = (id / 2) as usize;
+                    let len = polyline::length(&plan.points(&plan.mcls[ends.mcls[i] as usize]));
+                    if id % 2 == 0 {
+                        cuts[i].0 = s;
+                    } else {
+                        cuts[i].1 = len - s;
+                    }
+                }
+                // The disk holds the segments cut off.
+                *fan.near.borrow_mut() = Near::new();
+                turns += 1;
+            }
+        }
+    }
+    Ok(turns)
+}
+
+/// Where the pair of ends `b`, `e` turns short: the arc lengths from those ends along their
+/// MCLs, or `None` where the pair does not crowd at the hole or turning short would leave the
+/// MCLs beside it too far apart.
+fn turn(
+    slice: &Slice,
+    plan: &Plan,
+    ends: &Ends,
+    fan: &Fan<'_>,
+    cuts: &[(f32, f32)],
+    b: u16,
+    e: u16,
+) -> Option<(f32, f32)> {
+    let settings = slice.settings();
+    let w = settings.road_width;
+    // Each MCL's points walked from the end at the hole, with their arc lengths.
+    let walk = |id: u16| {
+        let i = (id / 2) as usize;
+        let mut pts = plan.points(&plan.mcls[ends.mcls[i] as usize]);
+        if id % 2 == 1 {
+            pts.reverse();
+        }
+        let mut cum = [0.0f32; crate::config::MCL_POINTS];
+        for j in 1..pts.len() {
+            cum[j] = cum[j - 1] + pts[j - 1].dist(pts[j]);
+        }
+        (pts, cum)
+    };
+    let (pb, cb) = walk(b);
+    let (pe, ce) = walk(e);
+    let (cb, ce) = (&cb[..pb.len()], &ce[..pe.len()]);
+    let room = |len: f32, id: u16| {
+        let (lo, hi) = cuts[(id / 2) as usize];
+        // The far end's cut, if any, from the far end.
+        let far = if id % 2 == 0 { len - hi.fmin(len) } else { lo };
+        len - far - 2.0 * w
+    };
+    let (lb, le) = (
+        cb.last().copied().unwrap_or(0.0),
+        ce.last().copied().unwrap_or(0.0),
+    );
+    let most = (MAX_TURN_ROADS * w)
+        .fmin(0.5 * room(lb, b))
+        .fmin(0.5 * room(le, e));
+    // The gaps either side of the MCL of end `id` at `p` (direction `dir` from the hole): the
+    // one toward `other`, and the one away from it.
+    let gaps = |id: u16, p: Point, dir: Point, other: Point| {
+        let i = id / 2;
+        let me = ends.mcls[i as usize];
+        let fan = Fan {
+            me,
+            at: i,
+            cut: cuts,
+            ..*fan
+        };
+        let (left_n, left, right) = band_at(slice, plan, p, dir, &fan)?;
+        Some(if (other - p).dot(left_n) >= 0.0 {
+            (left, right)
+        } else {
+            (right, left)
+        })
+    };
+    let step = STEP_PER_ROAD * w;
+    let mut s = 2.0 * step;
+    // The farthest level so far at which the MCLs beside the pair fill what it leaves.
+    let mut last = None;
+    while s <= most {
+        let (p, dp) = polyline::point_along(&pb, cb, s);
+        let (q, dq) = polyline::point_along(&pe, ce, s);
+        let (toward_e, beside_b) = gaps(b, p, dp, q)?;
+        let (toward_b, beside_e) = gaps(e, q, dq, p)?;
+        let crowded = toward_e.fmin(toward_b).fmin(beside_b).fmin(beside_e) < settings.min_width;
+        // Across the pair, from the MCL beside one to the MCL beside the other.
+        let span = beside_b + p.dist(q) + beside_e;
+        if !crowded || span > SPAN_PER_MAX_WIDTH * settings.max_width {
+            break;
+        }
+        last = Some(s);
+        s += step;
+    }
+    last.filter(|&s| s >= MIN_TURN_ROADS * w).map(|s| (s, s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_end_is_cut_where_its_side_of_the_stretch_is() {
+        // MCL 0 cut at its `from` end, MCL 1 at its far end, MCL 2 whole.
+        let cuts = [(0.5, f32::INFINITY), (0.0, 3.0), (0.0, f32::INFINITY)];
+        let cut: [bool; 6] = core::array::from_fn(|id| is_cut(&cuts, id as u16));
+        assert_eq!(cut, [true, false, false, true, false, false]);
+        // An MCL past the end of the cuts is whole.
+        assert!(!is_cut(&cuts, 6) && !is_cut(&cuts, 7));
+    }
+}
