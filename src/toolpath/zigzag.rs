@@ -14,6 +14,11 @@
 //! no curve of the rest is reached by a travel move to the nearest free end, as the paper does
 //! for its internal regions.
 //!
+//! Where the two MCLs an arc joins at a hole crowd their neighbours there (a strong fan round a
+//! small hole), the road turns from one to the other short of the hole instead of along the
+//! arc (`turns`): the pieces stay as paired, and the roads beside the pair widen into the
+//! ground it leaves, their bands measured against what each MCL lays (`Fan::cut`).
+//!
 //! Each MCL's road owns half the gap to its neighbouring MCLs either side
 //! (`meander::band_at`) and is as wide as that band up to
 //! [`max_width`](crate::Settings::max_width). Where MCLs fan apart (toward the wall, in large
