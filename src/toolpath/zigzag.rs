@@ -268,7 +268,7 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
     };
     // Pairs that crowd at a hole turn short of it ([`turns`]).
     let mut cuts = Cuts::new();
-    stats.turns = cut_turns(slice, plan, &ends, &fan, &mut cuts)?;
+    stats.turns = cut_turns(slice, plan, &ends, &curves, &fan, &mut cuts)?;
     let fan = Fan { cut: &cuts, ..fan };
 
     // Walk the pieces: paths from a free end, loops from their smallest end; between pieces
