@@ -27,9 +27,10 @@ use crate::{Error, FeatureId, Limit, Slice};
 /// Largest distance between the far ends of neighbouring halves, in road widths. Halves
 /// inserted where ends part more than this crowd at their hole, and their roads overlap there;
 /// since crowded pairs turn short of the hole in the zigzag (`toolpath::zigzag::turns`) that
-/// costs little: on the random bench's 200 slices 1.9 (before) gave 186 zigzags that meet the
-/// bar (coverage 0.9798, overfill 0.0271 on average, without turns at splices), 1.5 gave 187
-/// (0.9806, 0.0281), 1.3 gave 181 (0.9797, 0.0305).
+/// costs little: on the random bench's 200 slices (with turns, before a splice's inner pair
+/// could turn) 1.9 (before) gave 182 zigzags that meet the bar (coverage 0.9786, overfill
+/// 0.0264 on average), 1.7 gave 186 (0.9798, 0.0271), 1.5 gave 187 (0.9806, 0.0281), 1.3 gave
+/// 181 (0.9797, 0.0305).
 const MAX_END_GAP_PER_ROAD: f32 = 1.5;
 // `Half::depth` is a `u8`.
 const _: () = assert!(MAX_REFINE_DEPTH <= u8::MAX as u32);
