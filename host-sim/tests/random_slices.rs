@@ -5,8 +5,8 @@
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
 //! The offset spiral holds the bar (coverage >= 0.97 and overfill <= 0.04, every one of the
 //! benchmark's 200 slices), both layers each feature's own material on its keep-out curve,
-//! the zigzag's coverage is guarded at 0.85 and its starts at one; the rest is the
-//! benchmark's to report.
+//! the zigzag's coverage at 0.97, its overfill at 0.045 and its starts at one; the rest is
+//! the benchmark's to report.
 
 use host_sim::layers::{layer, Fill, Layer};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
@@ -40,10 +40,17 @@ fn default_layers_on_random_slices_as_printed() {
                 "{what}"
             );
             if k == 0 {
-                // The zigzag: its meanders fill the bands where MCLs fan apart (0.86-0.97 on
-                // these slices; before the strokes stood on one grid along each MCL, whole
-                // sectors of a fan stayed bare).
-                assert!(m.coverage >= 0.85, "{what}");
+                // The zigzag: coverage at the bar and overfill within a hair of it. Its
+                // meanders fill the bands where MCLs fan apart (0.86-0.97 on these slices
+                // before the strokes stood on one grid along each MCL and whole sectors of a
+                // fan stayed bare; 0.973-0.990 now, overfill 0.022-0.043). Nine of the ten
+                // meet the bar; seed 1002's overfill is 0.0426: a lobe of its wall far from
+                // every hole, where the fan's MCLs part by many roads and the meanders'
+                // strokes run several roads long, converging near their MCL and parting far
+                // from it (most of the random bench's misses are that: README, "Random
+                // slices").
+                assert!(m.coverage >= 0.97, "{what}");
+                assert!(m.overfill <= 0.045, "{what}");
                 // One road: a move that crosses a thin feature goes round it, one that sags
                 // into a keep-out band is laid narrower (before, one of them needed 11 starts
                 // and one 3), and pieces that reach one keep-out curve are joined across it
