@@ -51,7 +51,7 @@ pub struct Wire {
     flight: Vec<(u64, Vec<u8>)>,
     /// When the line is free again (bytes go out one after another).
     free_at: u64,
-    /// Data frames dropped or damaged (each needs a retransmission).
+    /// Data frames dropped or damaged past reading (each needs a retransmission).
     pub lost_data: u32,
     pub frames: u32,
 }
@@ -59,6 +59,21 @@ pub struct Wire {
 fn is_data(frame: &[u8]) -> bool {
     let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     matches!(acc.feed(frame).0, Feed::Frame(f) if f.kind == Kind::Data)
+}
+
+/// The frames `bytes` hold, each as its `Debug` text (owned, to compare).
+fn frames_in(bytes: &[u8]) -> Vec<String> {
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+    let mut out = Vec::new();
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (feed, tail) = acc.feed(rest);
+        if let Feed::Frame(f) = feed {
+            out.push(format!("{f:?}"));
+        }
+        rest = tail;
+    }
+    out
 }
 
 impl Wire {
@@ -74,7 +89,6 @@ impl Wire {
         }
         let mut f = frame.to_vec();
         if rng.chance(faults.corrupt) {
-            self.lost_data += u32::from(is_data(frame));
             // Byte faults: a bit flipped, a byte lost, inserted or repeated, two swapped, the
             // frame cut short.
             let k = rng.below(f.len());
@@ -87,6 +101,12 @@ impl Wire {
                 3 => f.insert(k, f[k]),
                 4 if k + 1 < f.len() && f[k] != f[k + 1] => f.swap(k, k + 1),
                 _ => f.truncate(k),
+            }
+            // Lost unless the damaged bytes still hold the frame: a repeated delimiter, or a
+            // zero byte inserted before the frame, only adds an empty frame beside it.
+            let intact = frames_in(frame);
+            if !frames_in(&f).iter().any(|g| intact.contains(g)) {
+                self.lost_data += u32::from(is_data(frame));
             }
         }
         let copies = if rng.chance(faults.duplicate) { 2 } else { 1 };
