@@ -104,16 +104,18 @@ fn default_layers_meet_the_bar_on_every_reference_slice() {
 /// road widths (eight more MCLs) it splices 45 loops, and doubles 0.024 of its ground. Since
 /// pairs that crowd at a hole turn short of it (a splice's inner pair too: its outer arc then
 /// has the stretch to itself) and halves are inserted where ends part by 1.5 roads (not 1.9),
-/// it splices 43 and doubles 0.010 (coverage 0.9906).
+/// it splices 43 and doubles 0.010 (coverage 0.9906). Since strong fans take halves from
+/// starts a tenth of the narrowest road apart (more MCLs, more of them turning short), it
+/// splices 32 and doubles 0.013 (coverage 0.9925).
 #[test]
 fn a_splices_outer_arc_leaves_the_mcls_into_the_inner_arc_their_ground() {
     let slice = slice_file::parse(REFERENCE_SLICES[0].1).unwrap().slice;
     let (l, m) = measured(&slice, &[(0, Fill::Offset)]).remove(0);
     let what = format!("{} ({}): {m:?}", m.pattern, l.note);
     println!("{what}");
-    assert!(l.note.contains("splicing 43 loops"), "{what}");
-    assert!(m.overfill <= 0.013, "{what}");
-    assert!(m.coverage >= 0.985, "{what}");
+    assert!(l.note.contains("splicing 32 loops"), "{what}");
+    assert!(m.overfill <= 0.014, "{what}");
+    assert!(m.coverage >= 0.99, "{what}");
 }
 
 #[test]
