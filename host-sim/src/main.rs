@@ -1,5 +1,16 @@
 //! `hollowpath`: plan, preview and measure scaffold slices on the PC with the printer's own core.
 
+/// Prints a line of the run's report to standard output, as `println!` does, but a report
+/// nobody reads any more (`hollowpath plan ... | head -1`: the pipe's reader has exited) does
+/// not stop the run: the files it writes are its result, and `println!` would panic there.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        // A failed write of the report (a closed pipe) is not the run's failure.
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod cmd;
 
 use cmd::args::{Cli, Command, LayersArg, PatternArg};
@@ -117,7 +128,7 @@ fn execute(cli: Cli) -> ExitCode {
                     };
                     let r = host_sim::print::print(stream, job, &cfg, layers, link, interrupted)
                         .map_err(|e| e.to_string())?;
-                    println!(
+                    say!(
                         "printed {} layers, plan {:016x}, {} frames retransmitted, upload {} bytes in {} messages",
                         r.layers.len(),
                         r.digest,
@@ -140,12 +151,12 @@ fn execute(cli: Cli) -> ExitCode {
                 let g = out.join("demo.gcode");
                 run(&f, &out, 2, Fill::Offset, Some(&g), true, None)?;
                 // The same two layers on the default printer's virtual pins.
-                println!("\non the default printer (virtual pins, the print rebuilt from the pin trace):");
+                say!("\non the default printer (virtual pins, the print rebuilt from the pin trace):");
                 let cfg = hollowpath::motion::PrinterConfig::default();
                 run_simulation(&f, &cfg, &out.join("sim"), Some(2), Source::Plan, None)
             })
             .and_then(|()| {
-                println!("\nthe built-in scaffold model, sliced:");
+                say!("\nthe built-in scaffold model, sliced:");
                 slice(&SliceArgs {
                     model: None,
                     demo_height: 3.0,
@@ -207,7 +218,7 @@ fn load_slice(path: &Path) -> Result<slice_file::SliceFile, String> {
 
 fn slice(args: &SliceArgs) -> Result<(), String> {
     for line in host_sim::model::run::run(args)? {
-        println!("{line}");
+        say!("{line}");
     }
     Ok(())
 }

@@ -448,3 +448,29 @@ fn a_layer_that_leaves_much_of_the_slice_bare_is_warned_of() {
     );
     assert!(!String::from_utf8_lossy(&o.stderr).contains("warning"));
 }
+
+/// A report nobody reads (`hollowpath plan ... | head -1`: the reader exits, the pipe closes)
+/// does not stop the run: it writes its files and exits 0. Before, the second line of the
+/// report panicked ("failed printing to stdout: Broken pipe") and nothing was written.
+#[test]
+fn plan_into_a_closed_pipe_still_writes_its_files() {
+    use std::process::Stdio;
+    let out = tmp("closed-pipe");
+    let slice = concat!(env!("CARGO_MANIFEST_DIR"), "/data/two_holes.json");
+    let mut child = hollowpath()
+        .args(["plan", slice, "--layers", "1", "--out"])
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading end at once, as `head` does once it has its lines.
+    drop(child.stdout.take());
+    let result = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.join("mcls.json").is_file());
+    assert!(out.join("metrics.json").is_file());
+    assert!(out.join("layer-0.json").is_file());
+}

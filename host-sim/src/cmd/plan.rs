@@ -59,7 +59,7 @@ pub(crate) fn run(
         &file.name
     };
     let pairs = plan.mcls.iter().filter(|m| m.second.is_some()).count();
-    println!(
+    say!(
         "{name}: {} MCLs ({pairs} hole-to-hole through p*, {} to the wall), {} bisectors, {} branch points; digest {:016x}",
         plan.mcls.len(),
         plan.mcls.len() - pairs,
@@ -149,7 +149,7 @@ pub(crate) fn run(
     }
     staged.commit()?;
 
-    println!(
+    say!(
         "{:<8} {:>6} {:>10} {:>11} {:>9} {:>9} {:>7} {:>12}",
         "pattern",
         "starts",
@@ -162,7 +162,7 @@ pub(crate) fn run(
     );
     for (i, (note, m)) in measured.iter().enumerate() {
         let label = if i >= built.len() { "baseline" } else { "" };
-        println!(
+        say!(
             "{:<8} {:>6} {:>10.1} {:>11.1} {:>9.3} {:>9.3} {:>7.4} {:>12.4}   {label}{}{note}",
             m.pattern,
             m.starts,
@@ -175,7 +175,7 @@ pub(crate) fn run(
             if label.is_empty() { "" } else { ": " }
         );
     }
-    println!(
+    say!(
         "wrote {}/mcls.json, mcls.svg, layer-K.svg/png, layer-K-deposit.png, metrics.json{}",
         out.display(),
         gcode_path

@@ -142,7 +142,7 @@ pub(crate) fn run_simulation(
             &preview::layer_png(slice, &preview::moves_path(&l.rebuilt_moves), px_per_mm),
         )?;
         let f = &s.figures;
-        println!(
+        say!(
             "layer {} ({}): {:.1} s; steps x {} y {} z {} ({} / {} / {} pulses), fastest {:.0} Hz, shortest pulse {} ticks; valve openings {:?} (all shut -> any open {}), open {:.1?} s",
             l.index,
             pattern_name,
@@ -159,7 +159,7 @@ pub(crate) fn run_simulation(
             f.any_openings,
             &f.valve_open_s[..channels],
         );
-        println!(
+        say!(
             "    planned   starts {:>4} coverage {:.4} overfill {:.4} spill {:.4}\n    simulated starts {:>4} coverage {:.4} overfill {:.4} spill {:.4}",
             s.planned.starts,
             s.planned.coverage,
@@ -205,7 +205,7 @@ pub(crate) fn run_simulation(
             .as_bytes(),
     )?;
     staged.commit()?;
-    println!(
+    say!(
         "wrote {}/simulation.json, layer-K-simulated.png (the rebuilt print by composition), layer-K-simulated-deposit.png",
         out.display()
     );
