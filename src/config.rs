@@ -147,9 +147,11 @@ pub const MCL_POINTS: usize = 2 * HALF_POINTS;
 pub const MAX_MCLS: usize = by_build(8_192, 512, 160);
 /// Raw streamline points before simplification.
 pub const TRACE_POINTS: usize = by_build(4_096, 1_024, 512);
-/// How often the MCL density may be doubled where MCLs diverge: six times, starts down to
-/// 1/64 of [`mcl_spacing`](crate::Settings::mcl_spacing) apart, which only a strong fan's
-/// halves reach (`mcl::insert`; the start gaps bind first elsewhere).
+/// How often the MCL density may be doubled where MCLs diverge. The least start gaps
+/// (`mcl::insert`) are what bind: at the default [`mcl_spacing`](crate::Settings::mcl_spacing)
+/// and `min_width` a strong fan's halves reach theirs (a tenth of the narrowest road) after
+/// five halvings, regular halves after one; the sixth serves a coarser `mcl_spacing` (up to
+/// 1.6 roads).
 pub const MAX_REFINE_DEPTH: u32 = 6;
 
 /// Points of all the offset spiral's traced loops together

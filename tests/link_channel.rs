@@ -71,6 +71,8 @@ fn a_frame_damaged_but_still_readable_is_not_counted_lost() {
     assert_eq!(o.ctrl_got, up);
     assert_eq!(o.host_got, down);
     assert!(o.lost_data == 0 || o.host.retransmissions + o.ctrl.retransmissions > 0);
+    assert_eq!(o.ctrl.delivered as usize, up.len());
+    assert_eq!(o.host.delivered as usize, down.len());
 }
 
 #[test]
@@ -131,7 +133,7 @@ proptest! {
         let o = simulate(seed, faults, &up, &down, 900_000_000);
         prop_assert_eq!(&o.ctrl_got, &up);
         prop_assert_eq!(&o.host_got, &down);
-        // Every lost or damaged data frame was sent again.
+        // Every data frame lost or damaged past reading was sent again.
         if o.lost_data > 0 {
             prop_assert!(o.host.retransmissions + o.ctrl.retransmissions > 0);
         }

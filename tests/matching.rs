@@ -72,8 +72,8 @@ fn two_circles_are_matched_symmetrically() {
     assert_eq!(plan.cells.branch_points.len(), 2);
     // Every hole-to-hole MCL is mirrored by another: p* at the same height, ends mirrored,
     // within an eighth of a road. The field's grid is not mirror-symmetric, and the outermost
-    // pair, whose halves a strong fan inserted six halvings deep beside the bisector's end on
-    // the wall, meets it 25 um off its mirror (-11.008 and 11.033; 2 um before strong fans
+    // pair, beside the bisector's end on the wall, where strong fans now insert halves up to
+    // five halvings deep, meets it 25 um off its mirror (-11.008 and 11.033; 2 um before strong fans
     // refined past three halvings, when every joint was within 0.02).
     let joints: Vec<Point> = plan
         .mcls

@@ -3,11 +3,16 @@
 /// Prints a line of the run's report to standard output, as `println!` does, but a report
 /// nobody reads any more (`hollowpath plan ... | head -1`: the pipe's reader has exited) does
 /// not stop the run: the files it writes are its result, and `println!` would panic there.
+/// Any other failure to write the report (a full disk under a redirected stdout) is said on
+/// standard error, and the run goes on.
 macro_rules! say {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        // A failed write of the report (a closed pipe) is not the run's failure.
-        let _ = writeln!(std::io::stdout(), $($arg)*);
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            if e.kind() != std::io::ErrorKind::BrokenPipe {
+                eprintln!("warning: the report could not be written to standard output: {e}");
+            }
+        }
     }};
 }
 

@@ -450,8 +450,9 @@ fn a_layer_that_leaves_much_of_the_slice_bare_is_warned_of() {
 }
 
 /// A report nobody reads (`hollowpath plan ... | head -1`: the reader exits, the pipe closes)
-/// does not stop the run: it writes its files and exits 0. Before, the second line of the
-/// report panicked ("failed printing to stdout: Broken pipe") and nothing was written.
+/// does not stop the run: it writes its files and exits 0. Before, the report's first line
+/// into the closed pipe panicked ("failed printing to stdout: Broken pipe") and nothing was
+/// written.
 #[test]
 fn plan_into_a_closed_pipe_still_writes_its_files() {
     use std::process::Stdio;

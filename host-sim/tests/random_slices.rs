@@ -41,14 +41,15 @@ fn default_layers_on_random_slices_as_printed() {
             );
             if k == 0 {
                 // The zigzag: overfill at the bar, coverage within a hair of it. Its meanders
-                // fill the bands where MCLs fan apart (0.86-0.97 on these slices before the
-                // strokes stood on one grid along each MCL and whole sectors of a fan stayed
-                // bare). Since strong fans take halves from starts a tenth of the narrowest
-                // road apart (`mcl::insert`), 0.968-0.991, overfill 0.024-0.037: nine of the
-                // ten meet the bar (seed 1002's overfill was 0.043, a lobe of its wall far
-                // from every hole that the fan reached with MCLs many roads apart). Seed
-                // 1006's coverage fell from 0.975 to 0.968 with that change: in a lobe of its
-                // wall the strokes of the denser fan stop short of the wall.
+                // fill the bands where MCLs fan apart (coverage 0.86-0.97 on these slices
+                // until the strokes stopped standing on one grid along each MCL, which left
+                // whole sectors of a fan bare). Since strong fans take halves from starts a
+                // tenth of the narrowest road apart (`mcl::insert`): coverage 0.968-0.991,
+                // overfill 0.024-0.037, nine of the ten at the bar. The one below it, seed
+                // 1006, fell from 0.975 to 0.968 with that change: in a lobe of its wall the
+                // denser fan's strokes stop short of the wall. (Seed 1002 went the other way:
+                // its overfill, 0.043 in a lobe far from every hole that the fan reached with
+                // MCLs many roads apart, is 0.037.)
                 assert!(m.coverage >= 0.965, "{what}");
                 assert!(m.overfill <= 0.04, "{what}");
                 // One road: a move that crosses a thin feature goes round it, one that sags
@@ -327,8 +328,9 @@ fn the_zigzag_lays_the_bare_strips_beside_its_meanders() {
     }
 }
 
-/// Round a small hole in a large cell the strong fan's halves start a quarter road apart,
-/// and every road there lay over its neighbours until the field parted them: needles of
+/// Round a small hole in a large cell the strong fan's halves started a quarter road apart
+/// (a tenth of the narrowest road since `mcl::insert`'s denser fans), and every road there lay
+/// over its neighbours until the field parted them: needles of
 /// doubled ground a hole's radius long (overfill 0.049, 0.045 and 0.049 on these slices,
 /// coverage 0.973-0.978). Pairs of MCLs that crowd at a hole now turn short of it, the roads
 /// beside them widening into the ground they leave (`toolpath::zigzag::turns`), and these

@@ -57,12 +57,13 @@ const FAN_END_GAP_PER_ROAD: f32 = 2.5;
 /// turn (their far ends part, their near ends crowd): more halves from closer starts reach
 /// there, and where they crowd at the hole they turn short of it
 /// (`toolpath::zigzag::turns`). On the random bench's 200 slices (zigzag, as printed; mean
-/// coverage / overfill, slices meeting the bar; with [`CROWDED_ROADS`] 12 and
-/// [`MAX_REFINE_DEPTH`] 3 unless said): 0.45, 0.9803 / 0.0250, 187; 0.2 refined 5 times,
-/// 0.9831 / 0.0256, 189 (0.3: as 0.45); 0.2 refined 5 times and crowding for 20 roads,
-/// 0.9837 / 0.0260, 192 (40 roads: 190, halves running side by side far from a concave hole
-/// doubled seed 103's overfill); **0.1 refined 6 times, 20 roads, 0.9852 / 0.0271, 194**;
-/// 0.05 refined 7 times, 0.9859 / 0.0281, 192.
+/// coverage / overfill, slices meeting the bar; with [`CROWDED_ROADS`] 12 unless said, and
+/// [`MAX_REFINE_DEPTH`] 3, which stops 0.45 and 0.2 alike, or raised so that the gap binds:
+/// four halvings of the default one-road spacing for 0.2, five for 0.1, six for 0.05): 0.45,
+/// 0.9803 / 0.0250, 187; 0.3, as 0.45 (its next halving is below it); 0.2, 0.9831 / 0.0256,
+/// 189; 0.2 and crowding for 20 roads, 0.9837 / 0.0260, 192 (40 roads: 190, halves running
+/// side by side far from a concave hole doubled seed 103's overfill); **0.1 and 20 roads,
+/// 0.9852 / 0.0271, 194**; 0.05 and 20 roads, 0.9859 / 0.0281, 192.
 const FAN_START_GAP_PER_MIN_WIDTH: f32 = 0.1;
 /// How far from its start, in road widths, a strong fan's half may run within a narrowest
 /// road of a neighbour: halves from close starts that the field does not part soon (where

@@ -1,7 +1,8 @@
 //! Short turns: where MCLs crowd at a hole, two that an arc joins there turn out in the field.
 //!
 //! Round a small hole in a large cell the MCLs fan out: to keep their roads within the widest
-//! road far out, halves start a quarter road apart at the hole (`mcl::insert`'s strong fans),
+//! road far out, halves start as little as a thirty-second of a road apart at the hole
+//! (`mcl::insert`'s strong fans split gaps down to a tenth of the narrowest road),
 //! where every road, however narrow, lies over its neighbours until the field parts them, a
 //! needle of doubled ground a hole's radius long beside each. Two MCLs whose ends an arc joins
 //! at the hole need not reach it: the road runs in along one only until it has room beside
