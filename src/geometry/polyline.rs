@@ -8,6 +8,19 @@ pub fn length(pts: &[Point]) -> f32 {
     pts.windows(2).map(|w| w[0].dist(w[1])).sum()
 }
 
+/// The arc length at every point of `pts` from the first, into `cum` (as far as both reach):
+/// summed segment by segment, the arithmetic [`point_along`]'s callers share.
+pub fn cumulative(pts: &[Point], cum: &mut [f32]) {
+    let n = pts.len().min(cum.len());
+    if n == 0 {
+        return;
+    }
+    cum[0] = 0.0;
+    for j in 1..n {
+        cum[j] = cum[j - 1] + pts[j - 1].dist(pts[j]);
+    }
+}
+
 /// The point at arc length `s` (clamped to the ends).
 pub fn point_at(pts: &[Point], s: f32) -> Point {
     let mut acc = 0.0;

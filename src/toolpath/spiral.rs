@@ -231,9 +231,7 @@ fn spiral_into(
                 let (ma, mb) = mcl_end_materials(slice, plan, s.mcl as usize);
                 let full = polyline::length(&plan.points(m));
                 let mut cum = [0.0f32; crate::config::HALF_POINTS];
-                for i in 1..pts.len() {
-                    cum[i] = cum[i - 1] + pts[i - 1].dist(pts[i]);
-                }
+                polyline::cumulative(pts, &mut cum);
                 let len = cum[pts.len() - 1];
                 // From just short of p* (where the spiral ended) to the next feature.
                 for i in (0..pts.len()).rev() {

@@ -178,9 +178,7 @@ pub(super) fn emit_mcl(
     // Arc length at every vertex, summed from the `from` end either way, so both ends carry
     // exactly their feature's material.
     let mut cum = [0.0f32; crate::config::MCL_POINTS];
-    for i in 1..pts.len() {
-        cum[i] = cum[i - 1] + pts[i - 1].dist(pts[i]);
-    }
+    polyline::cumulative(&pts, &mut cum);
     let n = pts.len();
     let len = cum[n - 1];
     // The MCL's vertices in walking order, with extra ones near both ends (`END_STEPS`).

@@ -156,9 +156,7 @@ fn turn(
             pts.reverse();
         }
         let mut cum = [0.0f32; crate::config::MCL_POINTS];
-        for j in 1..pts.len() {
-            cum[j] = cum[j - 1] + pts[j - 1].dist(pts[j]);
-        }
+        polyline::cumulative(&pts, &mut cum);
         (pts, cum)
     };
     let (pb, cb) = walk(b);
