@@ -337,6 +337,18 @@ fn the_zigzag_lays_the_bare_strips_beside_its_meanders() {
 /// zigzags meet the bar (overfill 0.029-0.032). Slice 37 was the third until strong fans took
 /// halves from starts a tenth of the narrowest road apart: its coverage rose from 0.973 to
 /// 0.986 and its overfill from 0.032 to 0.042, over the bar.
+/// A strong fan's halves may crowd in a bundle for a dozen roads out from a small hole (slice
+/// 105: MCLs of 0.6 mm roads 0.03-0.05 mm apart 4 mm out), more MCLs than one pair. Only one
+/// of two neighbouring pairs turned short, and the bundle's roads lay over each other (overfill
+/// 0.041 on slice 105, 0.042 on slice 37); a pair beside one that turned short now turns short
+/// too where the MCLs left beside both still fill what they leave (0.036 and 0.037).
+#[test]
+fn the_zigzag_thins_a_bundle_of_crowded_mcls_pair_by_pair() {
+    for seed in [105, 37] {
+        zigzag_meets_the_bar(seed);
+    }
+}
+
 #[test]
 fn the_zigzag_turns_crowded_pairs_short_of_a_small_hole() {
     for seed in [62, 90] {
