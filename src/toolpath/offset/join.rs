@@ -367,7 +367,8 @@ impl OffsetSpiral {
     /// than the grid's spacing, no grid node in it is as far from the features as the turn,
     /// and the traced turn closes on each side of it: the pocket beyond becomes an island loop
     /// that runs beside no other. Here such a loop is joined to the reached loop of its level
-    /// nearest it (at most [`PINCH_BRIDGE_ROADS`] road widths away), by a bridge out and one
+    /// nearest it (at most [`PINCH_BRIDGE_ROADS`] road widths away; from the nearest point of
+    /// it where both loops' stretches are free of other joins), by a bridge out and one
     /// back, their ends [`PINCH_GAP`] road widths apart on each loop, where the channel is
     /// there: along the bridge the distance to the features stays within half a road of the
     /// loops' own, and a road fits there as narrow as a move is laid where it would sag into
@@ -405,46 +406,77 @@ impl OffsetSpiral {
                 if d > reach || best.as_ref().is_some_and(|b| d >= b.0) {
                     continue;
                 }
-                let (pu, pv) = (self.at(u, su), self.at(v, sv));
-                let m = libm::ceilf(d / step).fmax(1.0) as usize;
-                // The channel is there: along the bridge the distance to the features stays
-                // between the two loops' own, less and plus half a road (clear of the roads of
-                // the turns below and above), and a road fits, as narrow as a move is laid
-                // where no bend keeps it out of a keep-out band.
-                let (cu, cv) = (slice.clearance(pu), slice.clearance(pv));
-                let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
-                let high = cu.fmax(cv) + 0.5 * w + 1e-4;
-                let in_channel = |i: usize| {
-                    let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
-                    c >= low && c <= high
-                };
-                if !(0..=m).all(in_channel) {
+                if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w) {
+                    best = Some((d, u, site));
                     continue;
                 }
-                let half_gap = 0.5 * PINCH_GAP * w;
-                let (a1, a2) = (
-                    wrap(su - half_gap, lu.length),
-                    wrap(su + half_gap, lu.length),
-                );
-                let (b1, b2) = (
-                    wrap(sv - half_gap, lv.length),
-                    wrap(sv + half_gap, lv.length),
-                );
-                if !self.free(u, a1, a2, 0.5 * w) || !self.free(v, b1, b2, 0.5 * w) {
-                    continue;
+                // Where the nearest point's stretch is taken (a join of the loop below already
+                // leaves there, random slice 9107's small loop at a peak of `D`), the nearest
+                // of the others whose bridge fits.
+                for k in 0..samples {
+                    let su = k as f32 * step;
+                    let (sv, d) = self.project(v, self.at(u, su));
+                    if d > reach || best.as_ref().is_some_and(|b| d >= b.0) {
+                        continue;
+                    }
+                    if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w) {
+                        best = Some((d, u, site));
+                    }
                 }
-                let site = Site {
-                    a: u as u16,
-                    a1,
-                    a2,
-                    b: v as u16,
-                    b1,
-                    b2,
-                };
-                best = Some((d, u, site));
             }
         }
         best.map(|(_, u, site)| (u, site))
+    }
+
+    /// The site of a pinch join ([`pinch_join`](Self::pinch_join)) from arc length `su` of loop
+    /// `u` to `sv` of loop `v`, `d` apart: where the channel is there and both stretches are
+    /// free.
+    fn pinch_site(
+        &self,
+        slice: &Slice,
+        (u, su): (usize, f32),
+        (v, sv): (usize, f32),
+        d: f32,
+        w: f32,
+    ) -> Option<Site> {
+        let step = 0.1 * w;
+        let (lu, lv) = (&self.loops[u], &self.loops[v]);
+        let (pu, pv) = (self.at(u, su), self.at(v, sv));
+        let m = libm::ceilf(d / step).fmax(1.0) as usize;
+        // The channel is there: along the bridge the distance to the features stays between
+        // the two loops' own, less and plus half a road (clear of the roads of the turns below
+        // and above), and a road fits, as narrow as a move is laid where no bend keeps it out
+        // of a keep-out band.
+        let (cu, cv) = (slice.clearance(pu), slice.clearance(pv));
+        let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
+        let high = cu.fmax(cv) + 0.5 * w + 1e-4;
+        let in_channel = |i: usize| {
+            let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
+            c >= low && c <= high
+        };
+        if !(0..=m).all(in_channel) {
+            return None;
+        }
+        let half_gap = 0.5 * PINCH_GAP * w;
+        let (a1, a2) = (
+            wrap(su - half_gap, lu.length),
+            wrap(su + half_gap, lu.length),
+        );
+        let (b1, b2) = (
+            wrap(sv - half_gap, lv.length),
+            wrap(sv + half_gap, lv.length),
+        );
+        if !self.free(u, a1, a2, 0.5 * w) || !self.free(v, b1, b2, 0.5 * w) {
+            return None;
+        }
+        Some(Site {
+            a: u as u16,
+            a1,
+            a2,
+            b: v as u16,
+            b1,
+            b2,
+        })
     }
 }
 
