@@ -241,3 +241,72 @@ fn metrics_agree_with_the_exported_gcode_as_printed() {
         }
     }
 }
+
+/// A slice file's text: a round wall of `sides` vertices and radius `radius` mm, with a round
+/// hole of radius `hole` (none at 0) at `at`, 0.4 mm roads.
+fn round_slice(sides: usize, radius: f32, hole: f32, at: (f32, f32)) -> Slice {
+    let ring = |c: (f32, f32), r: f32, n: usize| {
+        (0..n)
+            .map(|i| {
+                let a = 2.0 * std::f32::consts::PI * i as f32 / n as f32;
+                format!("[{}, {}]", c.0 + r * a.cos(), c.1 + r * a.sin())
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let holes = if hole > 0.0 {
+        format!(
+            r#"{{"points": [{}], "material": [0, 1, 0, 0]}}"#,
+            ring(at, hole, 24)
+        )
+    } else {
+        String::new()
+    };
+    let text = format!(
+        r#"{{"units": "mm", "outer": {{"points": [{}], "material": [1, 0, 0, 0]}}, "holes": [{holes}], "settings": {{"road_width": 0.4}}}}"#,
+        ring((0.0, 0.0), radius, sides)
+    );
+    slice_file::parse(&text).unwrap().slice
+}
+
+/// A round wall sampled by 32 to 40 vertices (as a CAD exporter tessellates a cylinder) turns
+/// its edges 9 to 11 degrees at each: each vertex's spoke, where its two edges are equally near,
+/// is a ridge of the wall's own that the offset spiral's turns cross round a corner, but its
+/// distance fell short of growing with the step by the tolerance only half a road to a road
+/// beyond it, and every turn's road widened there into a sliver that is not there. A plain disk
+/// of 36 vertices had overfill 0.111, of 40 0.076 (24 or 48 vertices: 0.004, 0.002); a spoke
+/// counts as a ridge now only where the distance beyond it falls or grows as slowly as fronts
+/// meeting at 60 degrees (`toolpath::offset::ridge`).
+#[test]
+fn the_offset_spiral_does_not_widen_at_the_vertices_of_a_round_wall() {
+    for (sides, radius) in [(32, 7.0), (36, 7.0), (40, 10.0)] {
+        let slice = round_slice(sides, radius, 0.0, (0.0, 0.0));
+        let (l, m) = measured(&slice, &[(1, Fill::Offset)]).remove(0);
+        let what = format!("{sides} sides, radius {radius}: {} ({})", m.pattern, l.note);
+        println!("{what}: {m:?}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(m.overfill <= 0.01, "{what}: overfill {}", m.overfill);
+        assert!(m.coverage >= 0.99, "{what}: coverage {}", m.coverage);
+    }
+}
+
+/// A channel at the centre of a round wall: the wall's turns and the channel's meet at a ridge
+/// they never cross, a circle half way, and no loop runs beside loops of both families. The
+/// join across that ridge (`toolpath::offset::join`'s pinch join) kept the distance along its
+/// bridge within half a road of the two loops', clear of a road a level above; between the
+/// last turns it rises higher (to a road above theirs less a sliver), though no turn lies
+/// above them there. Each family was a road of its own: two starts for channels of 1 µm to
+/// 0.3 mm across. Where no loop a level above lies near the bridge, it is joined now.
+#[test]
+fn the_offset_spiral_joins_a_centred_channel_across_its_ridge_in_one_road() {
+    for hole in [0.01, 0.2, 0.3] {
+        let slice = round_slice(200, 10.0, hole, (0.0, 0.0));
+        let (l, m) = measured(&slice, &[(1, Fill::Offset)]).remove(0);
+        let what = format!("hole {hole} mm: {} ({})", m.pattern, l.note);
+        println!("{what}: {m:?}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(l.note.contains(", 0 jump(s)"), "{what}");
+        assert!(m.spill < 5e-4 && m.overfill <= 0.04, "{what}");
+        assert!(m.coverage >= 0.97, "{what}: coverage {}", m.coverage);
+    }
+}

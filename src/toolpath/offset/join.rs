@@ -8,7 +8,7 @@ use super::{
 };
 use crate::config::MAX_SITES;
 use crate::geometry::primitives::MinMax;
-use crate::geometry::{polygon, polyline};
+use crate::geometry::{polygon, polyline, Point};
 use crate::toolpath::NARROWING;
 use crate::{Error, Limit, Slice};
 use heapless::Vec;
@@ -446,10 +446,27 @@ impl OffsetSpiral {
         // The channel is there: along the bridge the distance to the features stays between
         // the two loops' own, less and plus half a road (clear of the roads of the turns below
         // and above), and a road fits, as narrow as a move is laid where no bend keeps it out
-        // of a keep-out band.
+        // of a keep-out band. Where no loop a level above lies within a road of the bridge,
+        // there is no road above to keep clear of: two features' turns that meet at a ridge
+        // they never cross (a hole at the centre of a round wall, whose ridge is a circle
+        // between their last turns, each family of turns a road of its own) are joined
+        // across it, however high the distance rises between them.
         let (cu, cv) = (slice.clearance(pu), slice.clearance(pv));
         let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
-        let high = cu.fmax(cv) + 0.5 * w + 1e-4;
+        let above = lu.level.max(lv.level) + 1;
+        let span = (
+            Point::new(pu.x.fmin(pv.x), pu.y.fmin(pv.y)),
+            Point::new(pu.x.fmax(pv.x), pu.y.fmax(pv.y)),
+        );
+        let above_near = self
+            .loops
+            .iter()
+            .any(|l| l.level == above && polyline::boxes_overlap(l.bbox, span, w));
+        let high = if above_near {
+            cu.fmax(cv) + 0.5 * w + 1e-4
+        } else {
+            f32::INFINITY
+        };
         let in_channel = |i: usize| {
             let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
             c >= low && c <= high
