@@ -292,7 +292,7 @@ fn the_offset_spiral_does_not_widen_at_the_vertices_of_a_round_wall() {
 
 /// A channel at the centre of a round wall: the wall's turns and the channel's meet at a ridge
 /// they never cross, a circle half way, and no loop runs beside loops of both families. The
-/// join across that ridge (`toolpath::offset::join`'s pinch join) kept the distance along its
+/// join across that ridge (`toolpath::offset::pinch`) kept the distance along its
 /// bridge within half a road of the two loops', clear of a road a level above; between the
 /// last turns it rises higher (to a road above theirs less a sliver), though no turn lies
 /// above them there. Each family was a road of its own: two starts for channels of 1 µm to

@@ -30,6 +30,7 @@
 
 mod join;
 mod loops;
+mod pinch;
 mod ridge;
 mod trace;
 mod walk;
