@@ -20,7 +20,7 @@
 //! ground it leaves, their bands measured against what each MCL lays (`Fan::cut`).
 //!
 //! Each MCL's road owns half the gap to its neighbouring MCLs either side
-//! (`meander::band_at`) and is as wide as that band up to
+//! (`meander::band::band_at`) and is as wide as that band up to
 //! [`max_width`](crate::Settings::max_width). Where MCLs fan apart (toward the wall, in large
 //! cells) the band outgrows it, and the road fills the band with a *meander* instead
 //! (`meander::meander`): strokes across the band a road apart, each stroke's ends kept a road
@@ -51,8 +51,8 @@ use crate::config::{MAX_HOLES, MAX_MCLS};
 use crate::error::Limit;
 use crate::geometry::Point;
 use crate::keep_out::{KeepOut, Side};
+use crate::toolpath::meander::band::{fan_boxes, Fan, FanBoxes, FanChunks};
 use crate::toolpath::meander::near::Near;
-use crate::toolpath::meander::{fan_boxes, Fan, FanBoxes, FanChunks};
 use crate::toolpath::PathSink;
 use crate::{Error, Plan, Slice};
 

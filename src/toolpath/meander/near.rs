@@ -3,8 +3,8 @@
 
 use heapless::Vec;
 
+use super::band::{laid_segments, Fan, CHUNK};
 use super::probe::{meet_with, negated, products, touch_with};
-use super::{laid_segments, Fan, CHUNK};
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, primitives, Point};
 use crate::toolpath::zigzag::EDGE_MARGIN;
@@ -278,7 +278,7 @@ fn segment_box_within([a, b]: [Point; 2], c: Point, r2: f32) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{fan_boxes, search, FanBoxes, FanChunks};
+    use super::super::band::{fan_boxes, search, FanBoxes, FanChunks};
     use super::*;
     use crate::{Feature, FeatureId, Planner, Settings};
     use core::cell::RefCell;

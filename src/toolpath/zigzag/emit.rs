@@ -10,9 +10,8 @@ use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, Point};
 use crate::keep_out::{self, KeepOut};
 use crate::toolpath::composition::{along, mcl_end_materials};
-use crate::toolpath::meander::{
-    band_at, meander, opening_stroke, road_at, too_wide, Band, Fan, Strokes,
-};
+use crate::toolpath::meander::band::{band_at, road_at, Band, Fan};
+use crate::toolpath::meander::{meander, opening_stroke, too_wide, Strokes};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Material, Plan, Slice};
 use heapless::Vec;

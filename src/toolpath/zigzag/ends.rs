@@ -323,7 +323,7 @@ pub(super) fn curve_groups(plan: &Plan, holes: usize, active: &[u16]) -> usize {
 /// if every curve it touches keeps at least one MCL end (each feature's strip is still laid)
 /// and the curves stay as connected as they were (the pieces can still be spliced into one
 /// road). The neighbours' bands reach over the ground of the MCLs left out
-/// (`meander::band_at` measures to the MCLs laid). Where no chain qualifies, the odd curves
+/// (`meander::band::band_at` measures to the MCLs laid). Where no chain qualifies, the odd curves
 /// that remain stay odd, and the layer needs a start per pair of them.
 pub(super) fn even_out(plan: &Plan, holes: usize, active: &mut Vec<u16, MAX_MCLS>) {
     let curves = holes + 1;

@@ -8,7 +8,7 @@
 //! at the hole need not reach it: the road runs in along one only until it has room beside
 //! it, turns across to the other and runs out along that one, and the two roads either side
 //! of the pair widen into the ground the pair left (their bands reach each other there,
-//! [`laid_segments`](crate::toolpath::meander)). The pieces and pairings do not change: a
+//! [`laid_segments`](crate::toolpath::meander::band)). The pieces and pairings do not change: a
 //! short turn lays the same road as the arc it replaces, only nearer the wall.
 //!
 //! Walking out from the hole along both MCLs of a pair a quarter road at a time, the pair turns
@@ -43,8 +43,8 @@ use crate::config::MAX_MCLS;
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, Point};
 use crate::keep_out::KeepOut;
+use crate::toolpath::meander::band::{band_at, Fan};
 use crate::toolpath::meander::near::Near;
-use crate::toolpath::meander::{band_at, Fan};
 use crate::{Error, Limit, Plan, Slice};
 
 /// The stretch of each MCL laid that its road lays, by arc length from its `from` end
