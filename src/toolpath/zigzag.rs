@@ -34,11 +34,13 @@
 //! is left as slivers: a one-stroke jog laps over the road either side). The bands, road
 //! widths and meanders are in the sibling module `meander`.
 
+mod arc;
 mod emit;
 mod ends;
 mod turns;
 
-use emit::{emit_arc, emit_mcl, inner_end, Strip};
+use arc::{emit_arc, inner_end};
+use emit::{emit_mcl, Strip};
 use ends::{end_point, even_out, find, open_pieces, Arcs, Ends};
 use turns::{cut_turns, is_cut, Cuts};
 

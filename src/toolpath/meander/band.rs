@@ -39,8 +39,9 @@ pub(in crate::toolpath) struct Fan<'a> {
     pub near: &'a RefCell<Near>,
     /// Whether the keep-out strip nearest to a point lies on a stretch of its curve that no
     /// arc lays, at least the given arc length from either end of that stretch (the zigzag's
-    /// [`Arcs::bare`](super::zigzag) once its arcs are chosen; `None`: every strip is kept
-    /// for an arc). A stroke's end runs on into such a strip ([`stroke`]).
+    /// [`Arcs::bare`](crate::toolpath::zigzag) once its arcs are chosen; `None`: every strip
+    /// is kept for an arc). A stroke's end runs on into such a strip
+    /// ([`stroke`](super::stroke)).
     pub bare: Option<&'a dyn Fn(Point, f32) -> bool>,
     /// The stretch of each MCL laid that its road lays, by arc length from its `from` end, in
     /// the order of `laid` (the zigzag's short turns cut an MCL's end back, `turns`); an MCL
@@ -116,7 +117,7 @@ fn outward(at: usize, step: usize, n: usize) -> usize {
 /// end; or, where the normal meets a feature first, twice the room up to its keep-out strip
 /// (a road wide, where the arcs run). The MCL the road runs along counts too, away from `p`
 /// (a curved MCL may face itself). Both sides at once: along `n` and along `-n`.
-fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> [f32; 2] {
+pub(super) fn reach(slice: &Slice, plan: &Plan, p: Point, n: Point, fan: &Fan<'_>) -> [f32; 2] {
     // The segments and edges held near `p` answer most queries (those whose balls stay
     // inside their disk); the rest search every feature and every MCL laid.
     let near = match fan.near.try_borrow_mut() {

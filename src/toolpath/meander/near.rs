@@ -50,7 +50,7 @@ pub(super) fn unasked() -> bool {
 }
 
 /// The segments of the MCLs laid and the features' edges within a disk, for the
-/// [`reach`](super::reach) queries that follow one another along a road, and for the
+/// [`reach`](super::band::reach) queries that follow one another along a road, and for the
 /// clearances the road asks on the way: a query whose answer lies inside the room the disk
 /// leaves around it needs nothing else (everything not held lies farther), so it measures only
 /// these instead of searching every feature and MCL laid, and finds what the full search
@@ -151,7 +151,7 @@ impl Near {
         self.held = true;
     }
 
-    /// [`reach`](super::reach)'s least ball radius at `p` along `n` and along `-n`, each if
+    /// [`reach`](super::band::reach)'s least ball radius at `p` along `n` and along `-n`, each if
     /// the disk answers it; `None` where something not held could be nearer. The disk is
     /// filled again around `p` first if `p` lies [`NEAR_REFILL`] of its radius from its
     /// centre, and after a partial answer if `p` lies more than a quarter of it away (nearer,

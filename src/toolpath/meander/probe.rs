@@ -1,7 +1,8 @@
-//! The geometry of the zigzag's band queries ([`super::reach`]): how far a ray runs before it
-//! comes near a segment ([`within`], over every feature: [`features_within`]) and how far a
-//! ball grows along it before it touches one ([`ball`]), each behind a cheap test of the
-//! segment's ends ([`products`], [`meet_with`], [`touch_with`]) that rules most segments out.
+//! The geometry of the zigzag's band queries ([`reach`](super::band::reach)): how far a ray
+//! runs before it comes near a segment ([`within`], over every feature: [`features_within`])
+//! and how far a ball grows along it before it touches one ([`ball`]), each behind a cheap
+//! test of the segment's ends ([`products`], [`meet_with`], [`touch_with`]) that rules most
+//! segments out.
 
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, primitives, Point};
@@ -185,9 +186,9 @@ pub(super) fn box_clear_of_strip(
     h.0 > off + slack || h.1 < -off - slack || g.1 < -off - slack || g.0 > best + off + slack
 }
 
-/// One segment of [`reach`](super::reach)'s search: lowers `best` to the radius of the first ball along
-/// `p + t n` that touches segment `seg` of an MCL laid (`own`: of the MCL the road runs along,
-/// whose segments next to `p` do not count).
+/// One segment of [`reach`](super::band::reach)'s search: lowers `best` to the radius of the
+/// first ball along `p + t n` that touches segment `seg` of an MCL laid (`own`: of the MCL the
+/// road runs along, whose segments next to `p` do not count).
 #[inline(always)]
 pub(super) fn touch(p: Point, n: Point, seg: [Point; 2], own: bool, w: f32, best: &mut f32) {
     let (h, g) = products(p, n, seg);

@@ -2,7 +2,7 @@
 //! each end lies, the arcs pairing consecutive ends, the separate pieces they make (union-find),
 //! and the parity fix that leaves MCLs out until at most two curves are odd.
 
-use super::emit::arc_of_direction;
+use super::arc::arc_of_direction;
 use super::{CURVES, ENDS, NONE};
 use crate::config::MAX_MCLS;
 use crate::error::Limit;

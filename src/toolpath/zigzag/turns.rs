@@ -36,7 +36,7 @@
 
 use heapless::Vec;
 
-use super::emit::{arc_of, Arc};
+use super::arc::{arc_of, Arc};
 use super::ends::Ends;
 use super::NONE;
 use crate::config::MAX_MCLS;
