@@ -294,9 +294,9 @@ fn the_offset_spiral_does_not_widen_at_the_vertices_of_a_round_wall() {
 /// they never cross, a circle half way, and no loop runs beside loops of both families. The
 /// join across that ridge (`toolpath::offset::pinch`) kept the distance along its
 /// bridge within half a road of the two loops', clear of a road a level above; between the
-/// last turns it rises higher (to a road above theirs less a sliver), though no turn lies
-/// above them there. Each family was a road of its own: two starts for channels of 1 µm to
-/// 0.3 mm across. Where no loop a level above lies near the bridge, it is joined now.
+/// last turns it rises higher (0.75 to 0.99 of a road above theirs for these channels), though
+/// no turn lies above them there. Each family was a road of its own: two starts for channels
+/// of radius 1 µm to 0.3 mm. Where no loop a level above lies near the bridge, it is joined now.
 #[test]
 fn the_offset_spiral_joins_a_centred_channel_across_its_ridge_in_one_road() {
     for hole in [0.01, 0.2, 0.3] {

@@ -331,15 +331,6 @@ fn the_zigzag_lays_the_bare_strips_beside_its_meanders() {
     }
 }
 
-/// Round a small hole in a large cell the strong fan's halves started a quarter road apart
-/// (a tenth of the narrowest road since `mcl::insert`'s denser fans), and every road there lay
-/// over its neighbours until the field parted them: needles of
-/// doubled ground a hole's radius long (overfill 0.049, 0.045 and 0.049 on these slices,
-/// coverage 0.973-0.978). Pairs of MCLs that crowd at a hole now turn short of it, the roads
-/// beside them widening into the ground they leave (`toolpath::zigzag::turns`), and these
-/// zigzags meet the bar (overfill 0.029-0.032). Slice 37 was the third until strong fans took
-/// halves from starts a tenth of the narrowest road apart: its coverage rose from 0.973 to
-/// 0.986 and its overfill from 0.032 to 0.042, over the bar.
 /// A strong fan's halves may crowd in a bundle for a dozen roads out from a small hole (slice
 /// 105: MCLs of 0.6 mm roads 0.03-0.05 mm apart 4 mm out), more MCLs than one pair. Only one
 /// of two neighbouring pairs turned short, and the bundle's roads lay over each other (overfill
@@ -352,6 +343,15 @@ fn the_zigzag_thins_a_bundle_of_crowded_mcls_pair_by_pair() {
     }
 }
 
+/// Round a small hole in a large cell the strong fan's halves started a quarter road apart
+/// (a tenth of the narrowest road since `mcl::insert`'s denser fans), and every road there lay
+/// over its neighbours until the field parted them: needles of
+/// doubled ground a hole's radius long (overfill 0.049, 0.045 and 0.049 on these slices,
+/// coverage 0.973-0.978). Pairs of MCLs that crowd at a hole now turn short of it, the roads
+/// beside them widening into the ground they leave (`toolpath::zigzag::turns`), and these
+/// zigzags meet the bar (overfill 0.029-0.032). Slice 37 was the third until strong fans took
+/// halves from starts a tenth of the narrowest road apart: its coverage rose from 0.973 to
+/// 0.986 and its overfill from 0.032 to 0.042, over the bar (the test above holds it again).
 #[test]
 fn the_zigzag_turns_crowded_pairs_short_of_a_small_hole() {
     for seed in [62, 90] {

@@ -7,6 +7,10 @@ use crate::geometry::{polyline, Point};
 use crate::toolpath::NARROWING;
 use crate::Slice;
 
+/// How finely a pinch join samples a loop for its nearest point to the other, and the bridge
+/// for the channel, in road widths.
+const PINCH_STEP_ROADS: f32 = 0.1;
+
 impl OffsetSpiral {
     /// A join across a pinch: a loop no other join reaches (and not a small one, which is
     /// left out rather than joined by a bridge), to a reached loop of the same level across a
@@ -31,9 +35,13 @@ impl OffsetSpiral {
     pub(super) fn pinch_join(&self, slice: &Slice, w: f32) -> Option<(usize, Site)> {
         let n = self.loops.len();
         let reach = PINCH_BRIDGE_ROADS * w;
-        let step = 0.1 * w;
+        let step = PINCH_STEP_ROADS * w;
         // (bridge length, loop reached, site)
         let mut best: Option<(f32, usize, Site)> = None;
+        // A bridge of length `d` within reach and shorter than the best so far.
+        let better = |d: f32, best: &Option<(f32, usize, Site)>| {
+            d <= reach && best.as_ref().is_none_or(|b| d < b.0)
+        };
         for u in (0..n).filter(|&u| !self.loops[u].visited() && !self.loops[u].optional) {
             let lu = &self.loops[u];
             // Of its level across a pinch, or the level below round a small loop at a peak of
@@ -45,18 +53,20 @@ impl OffsetSpiral {
                 if !polyline::boxes_overlap(lu.bbox, lv.bbox, reach) {
                     continue;
                 }
-                // The point of `u` nearest `v`, sampled every tenth of a road.
+                // The points of `u` every tenth of a road, each with the nearest point of `v`
+                // and the distance to it.
                 let samples = libm::ceilf(lu.length / step) as usize;
-                let mut near: Option<(f32, f32, f32)> = None;
-                for k in 0..samples {
+                let sample = |k: usize| {
                     let su = k as f32 * step;
                     let (sv, d) = self.project(v, self.at(u, su));
-                    if near.is_none_or(|b| d < b.2) {
-                        near = Some((su, sv, d));
-                    }
-                }
-                let Some((su, sv, d)) = near else { continue };
-                if d > reach || best.as_ref().is_some_and(|b| d >= b.0) {
+                    (su, sv, d)
+                };
+                // The nearest (the first of equals).
+                let nearest = (0..samples)
+                    .map(sample)
+                    .reduce(|a, b| if b.2 < a.2 { b } else { a });
+                let Some((su, sv, d)) = nearest else { continue };
+                if !better(d, &best) {
                     continue;
                 }
                 if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w) {
@@ -66,14 +76,11 @@ impl OffsetSpiral {
                 // Where the nearest point's stretch is taken (a join of the loop below already
                 // leaves there, random slice 9107's small loop at a peak of `D`), the nearest
                 // of the others whose bridge fits.
-                for k in 0..samples {
-                    let su = k as f32 * step;
-                    let (sv, d) = self.project(v, self.at(u, su));
-                    if d > reach || best.as_ref().is_some_and(|b| d >= b.0) {
-                        continue;
-                    }
-                    if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w) {
-                        best = Some((d, u, site));
+                for (su, sv, d) in (0..samples).map(sample) {
+                    if better(d, &best) {
+                        if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w) {
+                            best = Some((d, u, site));
+                        }
                     }
                 }
             }
@@ -92,7 +99,7 @@ impl OffsetSpiral {
         d: f32,
         w: f32,
     ) -> Option<Site> {
-        let step = 0.1 * w;
+        let step = PINCH_STEP_ROADS * w;
         let (lu, lv) = (&self.loops[u], &self.loops[v]);
         let (pu, pv) = (self.at(u, su), self.at(v, sv));
         let m = libm::ceilf(d / step).fmax(1.0) as usize;
