@@ -57,12 +57,13 @@ pub fn layer(slice: &Slice, plan: &Plan, fill: Fill, index: usize) -> Result<Lay
             (
                 Pattern::Zigzag,
                 format!(
-                    "zigzag: {} piece(s) after splicing {} loops and bridging {} across a stretch of keep-out curve, {} MCLs left out for parity, {} pairs turning short of a hole{}",
+                    "zigzag: {} piece(s) after splicing {} loops and bridging {} across a stretch of keep-out curve, {} MCLs left out for parity, {} pairs turning short of a hole, {} stretches in lanes{}",
                     s.pieces,
                     s.splices,
                     s.bridges,
                     s.dropped,
                     s.turns,
+                    s.lanes,
                     if s.pieces > 1 {
                         "; the other pieces start after a jump: they reach no keep-out curve that the rest of the road reaches (or all of them are paths with no free ends on one curve)"
                     } else {

@@ -1,6 +1,7 @@
 //! The zigzag's roads along its MCLs ([`super::zigzag`]): the band each MCL's road owns
 //! between its neighbouring MCLs and the road's width and place in it (the sibling [`band`]),
-//! and the meander that fills a band wider than the widest road.
+//! and the meander that fills a band wider than the widest road: strokes across the band, or,
+//! along a long stretch of it, lanes along the MCL (the sibling [`lanes`]).
 
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, Point};
@@ -10,6 +11,7 @@ use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
 pub(in crate::toolpath) mod band;
+mod lanes;
 pub(in crate::toolpath) mod near;
 mod probe;
 
@@ -85,6 +87,14 @@ pub(super) fn meander(
         if !inside || k < 0.0 || k >= count {
             break;
         }
+        // Inside a stretch laid in lanes: nothing more to lay.
+        if let Some(last) = state.lanes_to {
+            if (k as i32 - last) * step as i32 <= 0 {
+                k += step;
+                continue;
+            }
+            state.lanes_to = None;
+        }
         let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
         let material = along(ma, mb, s, len);
         let q = a.lerp(b, t);
@@ -104,6 +114,35 @@ pub(super) fn meander(
                 closing.and_then(|at| grid.closing_side(&mut state.bands, k as i32, at))
             {
                 state.right_first = right;
+            }
+            // A run that stays too wide for a long way is laid in lanes along the MCL instead
+            // of strokes across it (`lanes`), at once: the walk then skips its samples.
+            let laid = lanes::lanes(
+                slice,
+                &grid,
+                &mut state.bands,
+                k as i32,
+                step as i32,
+                (ma, mb, len),
+                state.right_first,
+                closing,
+                sink,
+            )?;
+            if let Some(laid) = laid {
+                let s_last = offset + laid.last as f32 * spacing;
+                state.lanes_to = Some(laid.last);
+                state.lanes_span = Some((s.fmin(s_last), s.fmax(s_last)));
+                state.laned = state.laned.saturating_add(1);
+                state.in_meander = true;
+                state.right_first = laid.on_right;
+                state.last = Some(Last {
+                    tips: laid.tips,
+                    at: laid.at,
+                    dir: laid.dir,
+                    material: laid.material,
+                });
+                k += step;
+                continue;
             }
         }
         let mut ends = stroke_ends(slice, q, spacing, band, fan);
@@ -330,6 +369,14 @@ pub(super) struct Strokes {
     last: Option<Last>,
     /// The bands at the grid's samples around the last one asked.
     bands: Seen,
+    /// The last sample of a stretch laid in lanes, while the walk is inside it.
+    lanes_to: Option<i32>,
+    /// The arc lengths (from the MCL's `from` end) of the first and last samples of the last
+    /// stretch laid in lanes: the MCL's vertices between lay nothing (a vertex inside an
+    /// earlier stretch was passed before the next began).
+    lanes_span: Option<(f32, f32)>,
+    /// Stretches laid in lanes so far.
+    pub laned: u16,
 }
 
 /// The last stroke of a meander: where the next one's ends widen to ([`stroke`]) and where
@@ -383,7 +430,16 @@ impl Strokes {
             opened: false,
             last: None,
             bands: Seen([(-1, None); SEEN]),
+            lanes_to: None,
+            lanes_span: None,
+            laned: 0,
         }
+    }
+
+    /// Whether the MCL's point at arc length `s` (from its `from` end) lies inside the last
+    /// stretch laid in lanes: the road lays nothing there.
+    pub(super) fn in_lanes(&self, s: f32) -> bool {
+        self.lanes_span.is_some_and(|(lo, hi)| s > lo && s < hi)
     }
 }
 

@@ -31,8 +31,13 @@
 //! road lays its half of that stretch along the curve (`emit::Strip`), its run of strokes
 //! starting (or ending) on that side. The strokes come in runs
 //! of at least three (a band too wide for a road or two only, as on the outer side of a bend,
-//! is left as slivers: a one-stroke jog laps over the road either side). The bands, road
-//! widths and meanders are in the sibling module `meander`.
+//! is left as slivers: a one-stroke jog laps over the road either side). Where the band stays
+//! too wide for a long way (at least twice as long as it is wide), the road lays that stretch
+//! in *lanes* instead (`meander::lanes`): an odd number of roads along the MCL, side by side
+//! across the band, out and back in turn, which turn only at the stretch's two ends, where
+//! strokes turn twice a road and the round corners of two neighbouring meanders' turns leave
+//! stars of bare ground. The bands, road widths, meanders and lanes are in the sibling module
+//! `meander`.
 
 mod arc;
 mod emit;
@@ -96,6 +101,9 @@ pub struct ZigzagStats {
     pub dropped: u16,
     /// Pairs of MCLs that turn short of a hole where they crowd (`turns`).
     pub turns: u16,
+    /// Stretches of road laid in lanes along their MCL (`meander::lanes`), where the band
+    /// stays too wide for one road for a long way.
+    pub lanes: u16,
 }
 
 /// Writes the zigzag layer of `plan` into `sink`, spikes dropped
@@ -323,7 +331,8 @@ fn zigzag_into(slice: &Slice, plan: &Plan, sink: &mut impl PathSink) -> Result<Z
             visited[other as usize] = true;
             let mate = ends.arc[other as usize];
             let next = (mate != NONE && !visited[mate as usize]).then_some(mate);
-            emit_mcl(slice, plan, k, &fan, spliced, strips, forward, first, sink)?;
+            let laned = emit_mcl(slice, plan, k, &fan, spliced, strips, forward, first, sink)?;
+            stats.lanes = stats.lanes.saturating_add(laned);
             first = false;
             let Some(mate) = next else {
                 here = Some(end_point(plan, &ends, other));

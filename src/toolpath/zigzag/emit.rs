@@ -153,7 +153,8 @@ impl<'a> Strip<'a> {
 /// its band is measured against ([`band_at`]), `spliced` the curve of each end (`from` end
 /// first) that leads into a splice's inner arc ([`inner_end`]), `strips` the bare stretches
 /// beside its ends ([`Strip`]); the first vertex of a piece is reached by travel
-/// (`travel_to_start`).
+/// (`travel_to_start`). Returns how many stretches of it were laid in lanes
+/// (`meander::lanes`).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn emit_mcl(
     slice: &Slice,
@@ -165,7 +166,7 @@ pub(super) fn emit_mcl(
     forward: bool,
     travel_to_start: bool,
     sink: &mut impl PathSink,
-) -> Result<(), Error> {
+) -> Result<u16, Error> {
     let w = slice.settings().road_width;
     let (ma, mb) = mcl_end_materials(slice, plan, k);
     // The stretch of it the road lays (a short turn cuts an end back, `turns`), and the
@@ -239,6 +240,9 @@ pub(super) fn emit_mcl(
             }
             // Inside a meander (the last sample before was a stroke, and the band here is
             // wide too) the strokes fill the band: no road along the MCL's middle.
+            if strokes.in_lanes(at_cum) && !is_end {
+                continue;
+            }
             let band = band_at(slice, plan, p, dir, fan);
             if strokes.in_meander && !is_end && step != 0 && step + 1 != n && too_wide(slice, band)
             {
@@ -330,7 +334,7 @@ pub(super) fn emit_mcl(
             )?;
         }
     }
-    Ok(())
+    Ok(strokes.laned)
 }
 
 /// The stretch of an MCL (its points `whole`) between the arc lengths `cut` from its `from`
