@@ -8,14 +8,15 @@
 //! `HOLLOWPATH_DUMP=DIR` writes every slice that misses the bar there as a slice file (its
 //! seed in the name, `simplify_tolerance` 0 so that its contours stay as drawn) to plan again
 //! with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
-//! slice's figures per layer there.
+//! slice's figures per layer there. `HOLLOWPATH_LATTICE=1` measures the 48 regular arrays of
+//! channels of `random_slice::lattices` instead (their number in the seed's place).
 
 use std::sync::Mutex;
 
 use hollowpath::toolpath::Pattern;
 use host_sim::layers::{layer, Fill};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
-use host_sim::random_slice::{draw_many, to_json, Draw, RandomSlice};
+use host_sim::random_slice::{draw_many, lattices, to_json, Draw, RandomSlice};
 
 fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
     std::env::var(key)
@@ -102,7 +103,12 @@ fn bench() {
         ..Draw::default()
     };
     let dump = std::env::var("HOLLOWPATH_DUMP").ok();
-    let slices = draw_many(seed, count, &how);
+    let lattice = env("HOLLOWPATH_LATTICE", 0u32) != 0;
+    let slices = if lattice {
+        lattices()
+    } else {
+        draw_many(seed, count, &how)
+    };
     let next = Mutex::new(0usize);
     let outcomes = Mutex::new(Vec::new());
     std::thread::scope(|s| {
@@ -132,13 +138,20 @@ fn bench() {
     });
     let mut outcomes = outcomes.into_inner().unwrap();
     outcomes.sort_by_key(|o| o.0);
-    println!(
-        "random slices: {} drawn from seed {seed}, 1-{} holes, road {:?} mm, gap {} roads",
-        slices.len(),
-        how.max_holes,
-        how.road_width,
-        how.gap
-    );
+    if lattice {
+        println!(
+            "lattices: {} regular arrays of round channels in a square wall",
+            slices.len()
+        );
+    } else {
+        println!(
+            "random slices: {} drawn from seed {seed}, 1-{} holes, road {:?} mm, gap {} roads",
+            slices.len(),
+            how.max_holes,
+            how.road_width,
+            how.gap
+        );
+    }
     for (k, pattern) in [Pattern::Zigzag, Pattern::Spiral].iter().enumerate() {
         let ok: Vec<&LayerMetrics> = outcomes
             .iter()

@@ -245,6 +245,82 @@ pub fn draw(seed: u64, how: &Draw) -> Option<RandomSlice> {
     })
 }
 
+/// Regular arrays of round channels in a square wall, as a scaffold's designer lays them out
+/// (random slices place their holes at random, so the ties a lattice makes, cells of equal
+/// size meeting four or three at a point, never occur there): square and hexagonal arrays of
+/// 3 x 3, 4 x 4 and 6 x 6 channels of radius 0.25 and 0.5 mm, 2 and 3 mm apart, at 0.25 and
+/// 0.4 mm roads, the wall a pitch beyond the outer channels; 48 slices, numbered from 1 in
+/// `seed`.
+pub fn lattices() -> Vec<RandomSlice> {
+    let mut out = Vec::new();
+    for w in [0.25f32, 0.4] {
+        for radius in [0.25f32, 0.5] {
+            for pitch in [2.0f32, 3.0] {
+                for k in [3usize, 4, 6] {
+                    for hex in [false, true] {
+                        let seed = out.len() as u64 + 1;
+                        if let Some(r) = lattice(seed, w, radius, pitch, k, hex) {
+                            out.push(r);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A `k` x `k` array of channels of radius `radius`, `pitch` apart (rows shifted by half a
+/// pitch and `sqrt(3) / 2` pitch apart if `hex`), in a square wall a pitch beyond them.
+fn lattice(seed: u64, w: f32, radius: f32, pitch: f32, k: usize, hex: bool) -> Option<RandomSlice> {
+    let row = if hex { 0.866_025_4 * pitch } else { pitch };
+    let centres: Vec<Point> = (0..k)
+        .flat_map(|j| {
+            let shift = if hex && j % 2 == 1 { 0.5 * pitch } else { 0.0 };
+            (0..k).map(move |i| Point::new(i as f32 * pitch + shift, j as f32 * row))
+        })
+        .collect();
+    let (x1, y1) = (
+        (k - 1) as f32 * pitch + if hex { 0.5 * pitch } else { 0.0 },
+        (k - 1) as f32 * row,
+    );
+    let wall_pts = [
+        Point::new(-pitch, -pitch),
+        Point::new(x1 + pitch, -pitch),
+        Point::new(x1 + pitch, y1 + pitch),
+        Point::new(-pitch, y1 + pitch),
+    ];
+    let mut wall_material = [0.0; CHANNELS];
+    wall_material[0] = 1.0;
+    let wall = Feature::new(FeatureId::Wall, &wall_pts, wall_material).ok()?;
+    let mut holes = Vec::new();
+    for (n, &c) in centres.iter().enumerate() {
+        let pts = outline(
+            Shape::Circle,
+            c,
+            radius,
+            1.0,
+            0.0,
+            0,
+            0.0,
+            0.0,
+            vertices_for(radius, w),
+        );
+        let id = FeatureId::Hole(u8::try_from(n).ok()?);
+        holes.push(Feature::new(id, &pts, hole_material(n)).ok()?);
+    }
+    let slice = Slice::new(wall, &holes, Settings::for_road_width(w)).ok()?;
+    let description = format!(
+        "lattice {seed}: road {w:.3} mm, {} {k} x {k} channels of radius {radius} mm, {pitch} mm apart",
+        if hex { "hexagonal" } else { "square" }
+    );
+    Some(RandomSlice {
+        seed,
+        slice,
+        description,
+    })
+}
+
 /// The first `count` slices drawn from seeds `first..` (seeds that draw nothing are skipped).
 pub fn draw_many(first: u64, count: usize, how: &Draw) -> Vec<RandomSlice> {
     (first..).filter_map(|s| draw(s, how)).take(count).collect()
