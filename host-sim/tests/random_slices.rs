@@ -10,7 +10,7 @@
 
 use host_sim::layers::{layer, Fill, Layer};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
-use host_sim::random_slice::{draw_many, Draw};
+use host_sim::random_slice::{draw_many, lattices, Draw};
 
 #[test]
 fn default_layers_on_random_slices_as_printed() {
@@ -225,6 +225,36 @@ fn the_zigzag_joins_pieces_apart_across_a_stretch_of_the_curve_they_share() {
 #[test]
 fn the_zigzag_fills_between_strokes_that_fan_apart_in_a_large_cell() {
     zigzags_cover(&[(26, 0.93), (153, 0.915)]);
+}
+
+/// Hexagonal arrays of 1 mm channels 2 mm apart at 0.4 mm roads (`random_slice::lattices`
+/// 38, 40 and 42: 3 x 3, 4 x 4 and 6 x 6): each channel's first turn is its only loop (the
+/// pockets where three cells meet are small loops left out), beside its neighbours' only
+/// across a ridge where the distance rises 0.75 road above the turns. The pinch join across
+/// such a ridge refused to bridge it wherever a turn a level above lay near, and asked that of
+/// the turn's box: the wall's second turn, round the whole array, has a box over every bridge.
+/// The spirals took 2, 5 and 17 starts; the join asks now whether a turn a level above runs
+/// within a road of the bridge itself (`toolpath::offset::pinch`): one road each.
+#[test]
+fn the_offset_spiral_joins_the_channels_of_a_dense_lattice_in_one_road() {
+    for r in lattices()
+        .into_iter()
+        .filter(|r| [38, 40, 42].contains(&r.seed))
+    {
+        let slice = &r.slice;
+        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
+        let l = layer(slice, planner.last_plan(), Fill::Offset, 1).unwrap();
+        let mut meter = Meter::new(
+            slice,
+            Options::with_cell(slice.settings().road_width / 16.0),
+        );
+        let m = meter.measure(l.pattern, &l.path, &|_| None);
+        let what = format!("{} ({}): {m:?}", r.description, l.note);
+        println!("{what}");
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(l.note.contains(", 0 jump(s)"), "{what}");
+        assert!(m.spill < 5e-4, "{what}");
+    }
 }
 
 /// Where a fan's band stays too wide for one road for a long way (two holes in a 41 mm wall at

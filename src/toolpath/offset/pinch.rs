@@ -2,7 +2,7 @@
 //! of its own (a sibling of `join`, one more part of [`OffsetSpiral`]'s `impl`).
 
 use super::{wrap, OffsetSpiral, Site, PINCH_BRIDGE_ROADS, PINCH_GAP};
-use crate::geometry::primitives::MinMax;
+use crate::geometry::primitives::{closest_on_segment, segments_meet, MinMax};
 use crate::geometry::{polyline, Point};
 use crate::toolpath::NARROWING;
 use crate::Slice;
@@ -118,10 +118,17 @@ impl OffsetSpiral {
             Point::new(pu.x.fmin(pv.x), pu.y.fmin(pv.y)),
             Point::new(pu.x.fmax(pv.x), pu.y.fmax(pv.y)),
         );
-        let above_near = self
-            .loops
-            .iter()
-            .any(|l| l.level == above && polyline::boxes_overlap(l.bbox, span, w));
+        // Near the bridge itself, not only its box: a turn a level above that runs round the
+        // whole slice (along the wall of a lattice of channels) has a box over every bridge.
+        let near_bridge = |i: usize| {
+            let pts = self.pts(i);
+            let close = |p: Point| closest_on_segment(pu, pv, p).0.dist(p) <= w;
+            let crosses = |k: usize| segments_meet(pts[k], pts[(k + 1) % pts.len()], pu, pv);
+            pts.iter().any(|&p| close(p)) || (0..pts.len()).any(crosses)
+        };
+        let above_near = self.loops.iter().enumerate().any(|(i, l)| {
+            l.level == above && polyline::boxes_overlap(l.bbox, span, w) && near_bridge(i)
+        });
         let high = if above_near {
             cu.fmax(cv) + 0.5 * w + 1e-4
         } else {
