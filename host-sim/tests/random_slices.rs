@@ -10,7 +10,7 @@
 
 use host_sim::layers::{layer, Fill, Layer};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
-use host_sim::random_slice::{draw_many, lattices, Draw};
+use host_sim::random_slice::{draw_many, lattices, Draw, RandomSlice};
 
 #[test]
 fn default_layers_on_random_slices_as_printed() {
@@ -78,6 +78,11 @@ fn default_layers_on_random_slices_as_printed() {
 /// description, to print and to name a failure.
 fn measured(seed: u64, k: usize) -> (LayerMetrics, Layer, String) {
     let r = host_sim::random_slice::draw(seed, &Draw::default()).expect("a slice");
+    measured_slice(&r, k)
+}
+
+/// Layer `k` of `r`, measured as printed ([`measured`]).
+fn measured_slice(r: &RandomSlice, k: usize) -> (LayerMetrics, Layer, String) {
     let slice = &r.slice;
     let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
     let l = layer(slice, planner.last_plan(), Fill::Offset, k)
@@ -90,6 +95,16 @@ fn measured(seed: u64, k: usize) -> (LayerMetrics, Layer, String) {
     let what = format!("{} ({}): {m:?}", r.description, l.note);
     println!("{what}");
     (m, l, what)
+}
+
+/// The count a layer's note gives before `suffix` (", 22 stretches in lanes"); `what` names
+/// the layer if there is none.
+fn note_count(l: &Layer, suffix: &str, what: &str) -> u32 {
+    l.note
+        .split(", ")
+        .find_map(|part| part.strip_suffix(suffix))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count of{suffix}: {what}"))
 }
 
 /// The zigzag of `seed` is one road, lays nothing in a feature or outside the wall, and meets
@@ -241,16 +256,7 @@ fn the_offset_spiral_joins_the_channels_of_a_dense_lattice_in_one_road() {
         .into_iter()
         .filter(|r| [38, 40, 42].contains(&r.seed))
     {
-        let slice = &r.slice;
-        let planner = host_sim::plan(slice).unwrap_or_else(|e| panic!("{}: {e}", r.description));
-        let l = layer(slice, planner.last_plan(), Fill::Offset, 1).unwrap();
-        let mut meter = Meter::new(
-            slice,
-            Options::with_cell(slice.settings().road_width / 16.0),
-        );
-        let m = meter.measure(l.pattern, &l.path, &|_| None);
-        let what = format!("{} ({}): {m:?}", r.description, l.note);
-        println!("{what}");
+        let (m, l, what) = measured_slice(&r, 1);
         assert_eq!(m.starts, 1, "{what}");
         assert!(l.note.contains(", 0 jump(s)"), "{what}");
         assert!(m.spill < 5e-4, "{what}");
@@ -269,13 +275,7 @@ fn the_zigzag_lays_long_wide_stretches_in_lanes() {
     for seed in [26, 153] {
         zigzag_meets_the_bar(seed);
         let (_, l, what) = measured(seed, 0);
-        let lanes: u32 = l
-            .note
-            .split(", ")
-            .find_map(|part| part.strip_suffix(" stretches in lanes"))
-            .and_then(|n| n.parse().ok())
-            .unwrap_or_else(|| panic!("no count of stretches in lanes: {what}"));
-        assert!(lanes >= 10, "{what}");
+        assert!(note_count(&l, " stretches in lanes", &what) >= 10, "{what}");
     }
 }
 
@@ -409,12 +409,9 @@ fn the_zigzag_turns_crowded_pairs_short_of_a_small_hole() {
     for seed in [62, 90] {
         zigzag_meets_the_bar(seed);
         let (_, l, what) = measured(seed, 0);
-        let turns: u32 = l
-            .note
-            .split(", ")
-            .find_map(|part| part.strip_suffix(" pairs turning short of a hole"))
-            .and_then(|n| n.parse().ok())
-            .unwrap_or_else(|| panic!("no count of short turns: {what}"));
-        assert!(turns >= 5, "{what}");
+        assert!(
+            note_count(&l, " pairs turning short of a hole", &what) >= 5,
+            "{what}"
+        );
     }
 }
