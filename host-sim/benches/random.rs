@@ -9,7 +9,8 @@
 //! seed in the name, `simplify_tolerance` 0 so that its contours stay as drawn) to plan again
 //! with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
 //! slice's figures per layer there. `HOLLOWPATH_LATTICE=1` measures the 48 regular arrays of
-//! channels of `random_slice::lattices` instead (their number in the seed's place).
+//! channels of `random_slice::lattices` instead (their number in the seed's place; dumped as
+//! `lattice-N.json`).
 
 use std::sync::Mutex;
 
@@ -217,7 +218,8 @@ fn bench() {
                 continue;
             }
             let r = slices.iter().find(|r| r.seed == o.0).unwrap();
-            let name = format!("random-{}", o.0);
+            let kind = if lattice { "lattice" } else { "random" };
+            let name = format!("{kind}-{}", o.0);
             std::fs::write(format!("{dir}/{name}.json"), to_json(&r.slice, &name)).unwrap();
         }
     }

@@ -87,13 +87,10 @@ pub(super) fn meander(
         if !inside || k < 0.0 || k >= count {
             break;
         }
-        // Inside a stretch laid in lanes: nothing more to lay.
-        if let Some(last) = state.lanes_to {
-            if (k as i32 - last) * step as i32 <= 0 {
-                k += step;
-                continue;
-            }
-            state.lanes_to = None;
+        // Inside a stretch laid in lanes (its ends included): nothing more to lay.
+        if state.lanes_span.is_some_and(|(lo, hi)| s >= lo && s <= hi) {
+            k += step;
+            continue;
         }
         let t = ((s - sa) / (sb - sa)).clamp(0.0, 1.0);
         let material = along(ma, mb, s, len);
@@ -130,17 +127,11 @@ pub(super) fn meander(
             )?;
             if let Some(laid) = laid {
                 let s_last = offset + laid.last as f32 * spacing;
-                state.lanes_to = Some(laid.last);
                 state.lanes_span = Some((s.fmin(s_last), s.fmax(s_last)));
                 state.laned = state.laned.saturating_add(1);
                 state.in_meander = true;
                 state.right_first = laid.on_right;
-                state.last = Some(Last {
-                    tips: laid.tips,
-                    at: laid.at,
-                    dir: laid.dir,
-                    material: laid.material,
-                });
+                state.last = Some(laid.end);
                 k += step;
                 continue;
             }
@@ -369,18 +360,18 @@ pub(super) struct Strokes {
     last: Option<Last>,
     /// The bands at the grid's samples around the last one asked.
     bands: Seen,
-    /// The last sample of a stretch laid in lanes, while the walk is inside it.
-    lanes_to: Option<i32>,
     /// The arc lengths (from the MCL's `from` end) of the first and last samples of the last
-    /// stretch laid in lanes: the MCL's vertices between lay nothing (a vertex inside an
-    /// earlier stretch was passed before the next began).
+    /// stretch laid in lanes: the walk skips the samples from one to the other, and the MCL's
+    /// vertices between lay nothing (a vertex inside an earlier stretch was passed before the
+    /// next began).
     lanes_span: Option<(f32, f32)>,
     /// Stretches laid in lanes so far.
     pub laned: u16,
 }
 
-/// The last stroke of a meander: where the next one's ends widen to ([`stroke`]) and where
-/// strokes between the two start from ([`fan_parts`]).
+/// The last stroke of a meander (or the last section of a stretch in lanes, [`lanes`]): where
+/// the next one's ends widen to ([`stroke`]) and where strokes between the two start from
+/// ([`fan_parts`]).
 #[derive(Clone, Copy, Debug)]
 struct Last {
     /// Its ends (right, left).
@@ -430,7 +421,6 @@ impl Strokes {
             opened: false,
             last: None,
             bands: Seen([(-1, None); SEEN]),
-            lanes_to: None,
             lanes_span: None,
             laned: 0,
         }
@@ -546,13 +536,11 @@ fn stroke_ends(
     let (left_n, left, right) = band.filter(|_| too_wide(slice, band))?;
     let ws = spacing.fmax(settings.min_width);
     let half = 0.5 * settings.road_width;
-    // Room for the stroke off every keep-out curve's strip (each feature's own material's
-    // place, where an arc may run): its edge a road off the feature.
-    let room = settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN;
-    // Where no arc lays the strip, the stroke's edge keeps half a road off the feature (the
-    // printable region's bar) instead, clear of the arcs' round ends either side.
-    let bare_room = half + 0.5 * ws + 2.0 * EDGE_MARGIN;
-    let bare_margin = half + 0.5 * ws;
+    let StripRoom {
+        room,
+        bare_room,
+        bare_margin,
+    } = StripRoom::new(settings, ws);
     let side = |reach: f32, sign: f32| {
         // As far out as the band reaches, short of the strip along the stroke's line (a stroke
         // beside a wall or a hole runs on beside it): the line up to where it first comes
@@ -586,6 +574,28 @@ fn stroke_ends(
         side((0.5 * right - 0.5 * ws).fmax(0.0), -1.0),
         side((0.5 * left - 0.5 * ws).fmax(0.0), 1.0),
     ])
+}
+
+/// How far the centre of a road `ws` wide (a stroke's end, a lane's) keeps off the features:
+/// off every keep-out curve's strip (each feature's own material's place, where an arc may
+/// run), its edge a road off the feature (`room`); where no arc lays the strip, its edge half a
+/// road off the feature (the printable region's bar), clear of the arcs' round ends either
+/// side (`bare_room`), the strip counting as bare where it is `bare_margin` from the centre.
+pub(super) struct StripRoom {
+    pub room: f32,
+    pub bare_room: f32,
+    pub bare_margin: f32,
+}
+
+impl StripRoom {
+    pub(super) fn new(settings: &crate::Settings, ws: f32) -> StripRoom {
+        let half = 0.5 * settings.road_width;
+        StripRoom {
+            room: settings.road_width + 0.5 * ws + 2.0 * EDGE_MARGIN,
+            bare_room: half + 0.5 * ws + 2.0 * EDGE_MARGIN,
+            bare_margin: half + 0.5 * ws,
+        }
+    }
 }
 
 /// How near (road widths) a stroke's reach may come to where the keep-out strip begins and

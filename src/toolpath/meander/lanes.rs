@@ -24,11 +24,10 @@ use heapless::Vec;
 
 use super::band::Fan;
 use super::probe::features_within;
-use super::{stroke_ends, Grid, Seen};
+use super::{stroke_ends, Grid, Last, Seen, StripRoom};
 use crate::geometry::primitives::MinMax;
 use crate::geometry::Point;
 use crate::toolpath::composition::along;
-use crate::toolpath::zigzag::EDGE_MARGIN;
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Material, Settings, Slice};
 
@@ -79,20 +78,16 @@ impl Section {
     }
 }
 
-/// What a stretch laid in lanes leaves: where the road stands after it, and the last
-/// section's lane ends on its right and its left.
+/// What a stretch laid in lanes leaves.
 pub(super) struct Laid {
     /// The last sample of the stretch.
     pub last: i32,
     /// Whether the road left it on the right.
     pub on_right: bool,
-    /// The last section's outermost lanes' ends (right, left), where they ran on to a
-    /// feature past it.
-    pub tips: [Point; 2],
-    /// The last section's MCL point and direction.
-    pub at: Point,
-    pub dir: Point,
-    pub material: Material,
+    /// The last section as a meander's strokes go on from it: its outermost lanes' ends
+    /// (right, left; where they ran on to a feature past it), its MCL point and direction, and
+    /// the composition there.
+    pub end: Last,
 }
 
 /// Lays the stretch of samples from `k0` on (walking by `step`), all too wide
@@ -246,10 +241,12 @@ pub(super) fn lanes(
     Ok(Some(Laid {
         last: k0 + step * (count as i32 - 1),
         on_right: right,
-        tips,
-        at: last.q,
-        dir: last.dir,
-        material: material(last),
+        end: Last {
+            tips,
+            at: last.q,
+            dir: last.dir,
+            material: material(last),
+        },
     }))
 }
 
@@ -262,14 +259,12 @@ fn extend(slice: &Slice, fan: &Fan<'_>, from: Point, to: Point, width: f32, cap:
         return to;
     }
     let d = way * (1.0 / len);
-    let half = 0.5 * slice.settings().road_width;
-    let room = 2.0 * half + 0.5 * width + 2.0 * EDGE_MARGIN;
-    let mut t = features_within(slice, to, d, room);
-    // Into the strip where no arc lays it: its edge half a road off the feature (the
-    // printable region's bar), as a stroke's end runs into it ([`stroke_ends`]).
+    let rooms = StripRoom::new(slice.settings(), width);
+    let mut t = features_within(slice, to, d, rooms.room);
+    // Into the strip where no arc lays it, as a stroke's end runs into it ([`stroke_ends`]).
     if let Some(bare) = fan.bare {
-        let into = features_within(slice, to, d, half + 0.5 * width + 2.0 * EDGE_MARGIN);
-        if into > t && into <= cap && bare(to + d * into, half + 0.5 * width) {
+        let into = features_within(slice, to, d, rooms.bare_room);
+        if into > t && into <= cap && bare(to + d * into, rooms.bare_margin) {
             t = into;
         }
     }

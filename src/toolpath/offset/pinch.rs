@@ -113,33 +113,37 @@ impl OffsetSpiral {
         // across it, however high the distance rises between them.
         let (cu, cv) = (slice.clearance(pu), slice.clearance(pv));
         let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
-        let above = lu.level.max(lv.level) + 1;
-        let span = (
-            Point::new(pu.x.fmin(pv.x), pu.y.fmin(pv.y)),
-            Point::new(pu.x.fmax(pv.x), pu.y.fmax(pv.y)),
-        );
-        // Near the bridge itself, not only its box: a turn a level above that runs round the
-        // whole slice (along the wall of a lattice of channels) has a box over every bridge.
-        let near_bridge = |i: usize| {
-            let pts = self.pts(i);
-            let close = |p: Point| closest_on_segment(pu, pv, p).0.dist(p) <= w;
-            let crosses = |k: usize| segments_meet(pts[k], pts[(k + 1) % pts.len()], pu, pv);
-            pts.iter().any(|&p| close(p)) || (0..pts.len()).any(crosses)
-        };
-        let above_near = self.loops.iter().enumerate().any(|(i, l)| {
-            l.level == above && polyline::boxes_overlap(l.bbox, span, w) && near_bridge(i)
-        });
-        let high = if above_near {
-            cu.fmax(cv) + 0.5 * w + 1e-4
-        } else {
-            f32::INFINITY
-        };
-        let in_channel = |i: usize| {
+        let high = cu.fmax(cv) + 0.5 * w + 1e-4;
+        let mut rises = false;
+        for i in 0..=m {
             let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
-            c >= low && c <= high
-        };
-        if !(0..=m).all(in_channel) {
-            return None;
+            if c < low {
+                return None;
+            }
+            rises |= c > high;
+        }
+        // Where the distance rises past the upper bound, a turn a level above must not run
+        // near the bridge itself (not only its box: a turn that runs round the whole slice,
+        // along the wall of a lattice of channels, has a box over every bridge). Asked only
+        // then: the test walks the turns' points.
+        if rises {
+            let above = lu.level.max(lv.level) + 1;
+            let span = (
+                Point::new(pu.x.fmin(pv.x), pu.y.fmin(pv.y)),
+                Point::new(pu.x.fmax(pv.x), pu.y.fmax(pv.y)),
+            );
+            let near_bridge = |i: usize| {
+                let pts = self.pts(i);
+                let close = |p: Point| closest_on_segment(pu, pv, p).0.dist(p) <= w;
+                let crosses = |k: usize| segments_meet(pts[k], pts[(k + 1) % pts.len()], pu, pv);
+                pts.iter().any(|&p| close(p)) || (0..pts.len()).any(crosses)
+            };
+            let above_near = self.loops.iter().enumerate().any(|(i, l)| {
+                l.level == above && polyline::boxes_overlap(l.bbox, span, w) && near_bridge(i)
+            });
+            if above_near {
+                return None;
+            }
         }
         let half_gap = 0.5 * PINCH_GAP * w;
         let (a1, a2) = (
