@@ -12,15 +12,23 @@
 //! cells' turns join where they touch; near the wall the turns follow the wall.
 //!
 //! Adjacent turns are exactly a road width apart, so they neither overlap nor leave gaps. The
-//! turns are closed loops; two loops a road width apart are joined into one by cutting a
-//! half-road gap into each at a place where they run side by side and bridging the gaps
+//! turns are closed loops; two loops a road width apart are joined into one by cutting a gap
+//! a road long (half a road where a small loop has no room) into each at a place where they
+//! run side by side and bridging the gaps
 //! (two short roads across, like one step of a zigzag). Joining the loops along a spanning tree
 //! of their side-by-side adjacency makes one closed road: the whole layer is one extrusion
-//! start. Where two features come within about one and a half road widths, the channel a turn
-//! passes through between them can be thinner than the grid resolves: the traced turn closes
-//! on both sides of it, and the pocket beyond is an island loop beside no other. Such a loop is
-//! joined across the pinch to the nearest reached loop of its level, by a bridge out and one
-//! back through the channel (`pinch_join`). Only loops that no join reaches are reached by
+//! start. A join's two bridges run parallel: the gap on the loop below is as long, chord for
+//! chord, as the gap above, so that bridges into a small turn round a hole do not converge
+//! onto each other. Where two features' turns of one level run side by side across the ridge
+//! between them (the channels of a lattice), the loops are joined across that seam, square to
+//! it, before any loop is reached through a small loop a level above them (`seam_join`): the
+//! pocket where three or four channels meet is otherwise the only way from one channel to the
+//! next, two overlapping pairs of bridges a pocket. Where two features come within about one
+//! and a half road widths, the channel a turn passes through between them can be thinner than
+//! the grid resolves: the traced turn closes on both sides of it, and the pocket beyond is an
+//! island loop beside no other. Such a loop is joined across the pinch to the nearest reached
+//! loop of its level, by a bridge out and one back through the channel (`pinch_join`), a road
+//! apart where the pocket leaves room for both. Only loops that no join reaches are reached by
 //! travel, and counted as jumps (none on the reference slices, none on 200 random slices, none
 //! on the 48 lattices of channels of `host_sim::random_slice::lattices`).
 //!
@@ -85,9 +93,9 @@ const RELAXED_TOL: f32 = 0.3;
 /// turn passes through between two features is lost in the distance grid over at most a grid
 /// cell or two (the grid's spacing is at most 1.5 road widths).
 const PINCH_BRIDGE_ROADS: f32 = 3.0;
-/// The gap a join across a pinch cuts into each loop, road widths: the bridge out and the
-/// bridge back lie this far apart, almost on each other, in a channel that may have room for
-/// one road only.
+/// The narrowest gap a join across a pinch cuts into each loop, road widths, where the wider
+/// ones do not fit (`pinch::PINCH_GAPS`): the bridge out and the bridge back lie this far
+/// apart, almost on each other, in a channel that may have room for one road only.
 const PINCH_GAP: f32 = 0.1;
 /// Bisection steps locating a ridge within a road width (`w / 2^14`: 0.02 µm at 0.4 mm).
 const RIDGE_STEPS: u32 = 14;
@@ -136,8 +144,10 @@ struct Loop {
     /// while unreached ([`visited`](Loop::visited)).
     order: u16,
     /// Unreached: every loop reached before this many (by `order`) was tried for a relaxed
-    /// join to it and gave none ([`relaxed_join`](Self::relaxed_join)).
+    /// join to it and gave none ([`relaxed_join`](OffsetSpiral::relaxed_join)).
     tried: u16,
+    /// Unreached: the same for a join across a seam ([`seam_join`](OffsetSpiral::seam_join)).
+    seam_tried: u16,
     /// Small: laid only if a join reaches it.
     optional: bool,
     /// Crowded: its joins cut half-road gaps only ([`BRIDGE_GAPS`]' last), so that they all
@@ -153,7 +163,9 @@ impl Loop {
 }
 
 /// A join of two loops `a` and `b` running side by side: the gap `[a1, a2]` (arc length, in
-/// `a`'s direction) faces the gap `[b1, b2]` on `b`; bridges `a1-b1` and `a2-b2`.
+/// `a`'s direction) faces the gap `[b1, b2]` on `b`; bridges `a1-b1` and `a2-b2`, or where
+/// the two run opposite ways (`flip`: loops of one level facing each other across a ridge)
+/// `a1-b2` and `a2-b1`, so that the bridges do not cross.
 #[derive(Clone, Copy, Debug)]
 struct Site {
     a: u16,
@@ -162,6 +174,7 @@ struct Site {
     b: u16,
     b1: f32,
     b2: f32,
+    flip: bool,
 }
 
 /// A loop being walked: where the walk is, which way, how much is left, and the site it was
@@ -310,7 +323,8 @@ const EDGE_DIRECTIONS: [(f32, f32); 12] = [
 /// How near (road widths) a laid turn must pass the point a road width out along the distance
 /// gradient for the next turn to count as laid there.
 const LAID_TOL: f32 = 0.1;
-/// How many times a widening that crosses the ridge sideways is halved before it is given up.
+/// How many bisection steps find the widest widening whose edge does not cross the ridge
+/// sideways, where the whole sliver's does (to an eighth of it).
 const WIDEN_TRIES: u32 = 3;
 
 fn capacity(limit: Limit) -> Error {

@@ -83,6 +83,7 @@ impl OffsetSpiral {
                 }
             }
             if ok && self.free(b, ends.0, ends.1, 0.5 * w) {
+                let ends = self.parallel_ends(a, (a1, a2), b, ends, w).unwrap_or(ends);
                 return Some(Site {
                     a: a as u16,
                     a1,
@@ -90,10 +91,50 @@ impl OffsetSpiral {
                     b: b as u16,
                     b1: ends.0,
                     b2: ends.1,
+                    flip: false,
                 });
             }
         }
         None
+    }
+
+    /// The gap on loop `b` below the gap `(a1, a2)` of loop `a`, moved so that its chord is
+    /// as long as `a`'s (about its middle): the two bridges then run parallel, a road apart,
+    /// where the points straight below `a`'s gap ends (`ends`) draw them together on a
+    /// small loop round a hole (they overlap by a wedge there) or apart on the wall's turns
+    /// (a bare wedge). `None` where that gap is not free.
+    fn parallel_ends(
+        &self,
+        a: usize,
+        (a1, a2): (f32, f32),
+        b: usize,
+        ends: (f32, f32),
+        w: f32,
+    ) -> Option<(f32, f32)> {
+        let lenb = self.loops[b].length;
+        let chord_a = self.at(a, a1).dist(self.at(a, a2));
+        let gap = wrap(ends.1 - ends.0, lenb);
+        let chord_b = self.at(b, ends.0).dist(self.at(b, ends.1));
+        if chord_b < 1e-6 || gap <= 0.0 {
+            return None;
+        }
+        let mid = ends.0 + 0.5 * gap;
+        // The arc whose chord is `chord_a`, by two secant steps on the chord's length.
+        let mut half = 0.5 * gap * chord_a / chord_b;
+        for _ in 0..2 {
+            let c = self
+                .at(b, wrap(mid - half, lenb))
+                .dist(self.at(b, wrap(mid + half, lenb)));
+            if c < 1e-6 {
+                return None;
+            }
+            half *= chord_a / c;
+        }
+        if !(half > 0.0 && 2.0 * half < 0.5 * lenb) {
+            return None;
+        }
+        let moved = (wrap(mid - half, lenb), wrap(mid + half, lenb));
+        self.free(b, moved.0, moved.1, 0.5 * w).then_some(moved)
     }
 
     /// Joins the loops along a spanning tree of their side-by-side adjacency, breadth first
@@ -216,6 +257,7 @@ impl OffsetSpiral {
             l.parent = NONE;
             l.order = NONE;
             l.tried = 0;
+            l.seam_tried = 0;
         }
         self.visits = 0;
         // Roots: the longest loop of level 0 first (the wall's first turn), then any loop
@@ -236,7 +278,8 @@ impl OffsetSpiral {
             self.visit(root);
             self.bfs(slice, &pairs, root, stats)?;
             while let Some((other, site)) = self
-                .relaxed_join(slice, w)
+                .seam_join(slice, w)
+                .or_else(|| self.relaxed_join(slice, w))
                 .or_else(|| self.pinch_join(slice, w))
             {
                 self.attach(other, site, stats)?;
@@ -357,19 +400,20 @@ impl OffsetSpiral {
 std::thread_local! {
     /// Test builds only: whether this thread's joins search as before their shortcuts (relaxed
     /// joins try every pair again, sites are sought along all of a loop however far from the
-    /// other), and how many pairs relaxed joins have tried.
+    /// other), and how many pairs relaxed joins and joins across a seam have tried.
     static PLAIN: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
     static RELAXED_SEARCHES: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
+    static SEAM_SEARCHES: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
 }
 
 /// Whether relaxed joins try every pair again: never, outside tests.
 #[cfg(not(test))]
-const fn tests_plain() -> bool {
+pub(super) const fn tests_plain() -> bool {
     false
 }
 
 #[cfg(test)]
-fn tests_plain() -> bool {
+pub(super) fn tests_plain() -> bool {
     PLAIN.with(|p| p.get())
 }
 
@@ -379,6 +423,14 @@ fn count_relaxed_search() {}
 #[cfg(test)]
 fn count_relaxed_search() {
     RELAXED_SEARCHES.with(|n| n.set(n.get() + 1));
+}
+
+#[cfg(not(test))]
+pub(super) fn count_seam_search() {}
+
+#[cfg(test)]
+pub(super) fn count_seam_search() {
+    SEAM_SEARCHES.with(|n| n.set(n.get() + 1));
 }
 
 #[cfg(test)]
@@ -423,7 +475,7 @@ mod tests {
     }
 
     /// The joins of the spiral's loops, as bits.
-    fn joins(spiral: &OffsetSpiral) -> StdVec<[u32; 6]> {
+    fn joins(spiral: &OffsetSpiral) -> StdVec<[u32; 7]> {
         let bits = |s: &Site| {
             [
                 s.a as u32,
@@ -432,9 +484,33 @@ mod tests {
                 s.b as u32,
                 s.b1.to_bits(),
                 s.b2.to_bits(),
+                s.flip as u32,
             ]
         };
         spiral.sites.iter().map(bits).collect()
+    }
+
+    /// Prepares `slice`'s spiral as the search over every pair after every join would, then
+    /// with the shortcuts; asserts the joins are the same bits, and returns them with the
+    /// pairs relaxed joins and joins across a seam tried, each way (`[plain, shortcut]`).
+    fn searches(slice: &Slice) -> (OffsetStats, [usize; 2], [usize; 2]) {
+        let mut grid = Box::new(GridMemory::new());
+        let mut relaxed = [0usize; 2];
+        let mut seams = [0usize; 2];
+        let mut built: [(StdVec<[u32; 7]>, OffsetStats); 2] = Default::default();
+        for (k, plain) in [true, false].into_iter().enumerate() {
+            PLAIN.with(|p| p.set(plain));
+            RELAXED_SEARCHES.with(|n| n.set(0));
+            SEAM_SEARCHES.with(|n| n.set(0));
+            let mut spiral = Box::new(OffsetSpiral::new());
+            let stats = spiral.prepare(slice, &mut grid).unwrap();
+            relaxed[k] = RELAXED_SEARCHES.with(|n| n.get());
+            seams[k] = SEAM_SEARCHES.with(|n| n.get());
+            built[k] = (joins(&spiral), stats);
+        }
+        PLAIN.with(|p| p.set(false));
+        assert_eq!(built[0], built[1]);
+        (built[1].1, relaxed, seams)
     }
 
     /// Relaxed joins try each unreached loop only against the loops reached since its last
@@ -448,24 +524,61 @@ mod tests {
             .spawn(|| {
                 // 240 spikes 7-11 mm out, 0.25 mm roads (within every build's capacities
                 // but the board's): 77 loops, 43 joins.
-                let slice = spiky(240, 4.0, 7.0, 0.25);
-                let mut grid = Box::new(GridMemory::new());
-                let mut searched = [0usize; 2];
-                let mut built: [(StdVec<[u32; 6]>, OffsetStats); 2] = Default::default();
-                for (k, plain) in [true, false].into_iter().enumerate() {
-                    PLAIN.with(|p| p.set(plain));
-                    RELAXED_SEARCHES.with(|n| n.set(0));
-                    let mut spiral = Box::new(OffsetSpiral::new());
-                    let stats = spiral.prepare(&slice, &mut grid).unwrap();
-                    searched[k] = RELAXED_SEARCHES.with(|n| n.get());
-                    built[k] = (joins(&spiral), stats);
-                }
-                PLAIN.with(|p| p.set(false));
-                assert_eq!(built[0], built[1]);
+                let (stats, relaxed, _) = searches(&spiky(240, 4.0, 7.0, 0.25));
                 // The slice needs relaxed joins, many of them.
-                assert!(built[1].1.joins > 30, "{:?}", built[1].1);
-                assert!(searched[0] > 3000, "{searched:?}");
-                assert!(8 * searched[1] < searched[0], "{searched:?}");
+                assert!(stats.joins > 30, "{stats:?}");
+                assert!(relaxed[0] > 3000, "{relaxed:?}");
+                assert!(5 * relaxed[1] < relaxed[0], "{relaxed:?}");
+            })
+            .unwrap()
+            .join()
+            .unwrap();
+    }
+
+    /// The same for joins across a seam, on a lattice of channels (6 x 6 round channels of
+    /// radius 0.25 mm, 2 mm apart, at 0.4 mm roads: every channel's second turn meets its
+    /// neighbours' across a seam); and those joins are what reach the channels.
+    #[test]
+    fn seam_joins_try_each_pair_once_and_join_as_the_full_search() {
+        std::thread::Builder::new()
+            .stack_size(64 << 20)
+            .spawn(|| {
+                let circle = |cx: f32, cy: f32| -> StdVec<Point> {
+                    (0..24)
+                        .map(|k| {
+                            let a = k as f32 * core::f32::consts::TAU / 24.0;
+                            Point::new(cx + 0.25 * libm::cosf(a), cy + 0.25 * libm::sinf(a))
+                        })
+                        .collect()
+                };
+                let holes: StdVec<StdVec<Point>> = (0..36)
+                    .map(|k| circle(2.0 * (k % 6) as f32, 2.0 * (k / 6) as f32))
+                    .collect();
+                let holes: StdVec<(&[Point], [f32; 4])> = holes
+                    .iter()
+                    .map(|h| (&h[..], [0.0, 1.0, 0.0, 0.0]))
+                    .collect();
+                let wall = [
+                    Point::new(-2.0, -2.0),
+                    Point::new(12.0, -2.0),
+                    Point::new(12.0, 12.0),
+                    Point::new(-2.0, 12.0),
+                ];
+                let settings = Settings {
+                    road_width: 0.4,
+                    ..Settings::default()
+                };
+                // 36 holes: past the default build's capacity, within `large`'s (the
+                // workspace's tests build the core with it).
+                if crate::config::MAX_HOLES < holes.len() {
+                    return;
+                }
+                let slice =
+                    Slice::from_contours(&wall, [1.0, 0.0, 0.0, 0.0], &holes, settings).unwrap();
+                let (stats, _, seams) = searches(&slice);
+                assert!(stats.joins > 100, "{stats:?}");
+                assert!(seams[0] > 500, "{seams:?}");
+                assert!(4 * seams[1] < seams[0], "{seams:?}");
             })
             .unwrap()
             .join()

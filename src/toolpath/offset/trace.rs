@@ -293,6 +293,7 @@ impl OffsetSpiral {
                 parent: NONE,
                 order: NONE,
                 tried: 0,
+                seam_tried: 0,
                 optional: length < OPTIONAL_LOOP_ROADS * w,
                 tight: false,
             })

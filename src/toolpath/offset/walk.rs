@@ -243,7 +243,16 @@ impl OffsetSpiral {
                         let (x1, x2, child, y1, y2) = self.site_on(si, l);
                         let gap = wrap(x2 - x1, len);
                         let child_gap = wrap(y2 - y1, self.loops[child].length);
-                        let (resume, enter) = if top.forward { (x2, y1) } else { (x1, y2) };
+                        // The child runs the other way round from its gap's end that faces
+                        // where this loop's walk reaches the gap, or, where the two loops run
+                        // opposite ways (`flip`), the same way from the other end.
+                        let flip = self.sites[si].flip;
+                        let (resume, enter) = match (top.forward, flip) {
+                            (true, false) => (x2, y1),
+                            (false, false) => (x1, y2),
+                            (true, true) => (x2, y2),
+                            (false, true) => (x1, y1),
+                        };
                         if let Some(f) = self.stack.last_mut() {
                             f.pos = resume;
                             f.remaining -= ahead + gap;
@@ -258,7 +267,7 @@ impl OffsetSpiral {
                             .push(Frame {
                                 lp: child as u16,
                                 pos: enter,
-                                forward: !top.forward,
+                                forward: top.forward == flip,
                                 remaining: self.loops[child].length - child_gap,
                                 entered_by: si as u16,
                             })
