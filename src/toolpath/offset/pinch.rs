@@ -13,18 +13,21 @@ use crate::Slice;
 /// The gaps a join across a pinch tries, road widths, widest first: a road apart the bridges
 /// do not overlap at all, where the pocket has room for both; the last is [`PINCH_GAP`]. A
 /// join across a seam tries the first two. On the 48 lattices of channels the wider gaps
-/// took the spiral's mean overfill from 0.0331 to 0.0313 (0.070 to 0.048 on the worst), for
-/// 0.0001 of coverage.
+/// took the spiral's mean overfill from 0.0331 to 0.0313 (lattice 42's from 0.070 to 0.048),
+/// for 0.0001 of coverage.
 const PINCH_GAPS: [f32; 3] = [1.0, 0.5, PINCH_GAP];
 /// The longest bridge of a join across a seam ([`OffsetSpiral::seam_join`]), road widths:
 /// turns of one level either side of a ridge lie less than a road apart, narrowed to it, or
 /// up to a road and a half where the gap between them is widened into.
 const SEAM_ROADS: f32 = 1.5;
 /// How nearly opposite two loops joined across a seam run: the cosine of the angle between
-/// one's direction and the other's reversed, at least; each bridge is as nearly square to
-/// them. Without it a loop's tip was joined to the side of another along the ridge, the two
+/// one's direction and the other's reversed, at least (within 37 degrees). Without it and
+/// [`SEAM_SQUARE`] a loop's tip was joined to the side of another along the ridge, the two
 /// bridges running along it (random slice 14: overfill 0.035 to 0.039).
 const SEAM_COS: f32 = 0.8;
+/// How nearly square to the loops a bridge across a seam runs: the cosine of the angle
+/// between the bridge and the first loop's direction, at most (within 11.5 degrees of square).
+const SEAM_SQUARE: f32 = 0.2;
 
 /// How finely a pinch join samples a loop for its nearest point to the other, and the bridge
 /// for the channel, in road widths.
@@ -86,8 +89,6 @@ impl OffsetSpiral {
                 continue;
             }
             let since = if seam { self.loops[u].seam_tried } else { 0 };
-            // Whether a pair of `u` was passed over for the best so far, or gave a site.
-            let mut open = false;
             let lu = &self.loops[u];
             // Of its level across a pinch, or the level below round a small loop at a peak of
             // `D` that no relaxed site reaches (the turn below runs more than a road off it).
@@ -104,12 +105,9 @@ impl OffsetSpiral {
                 if seam {
                     count_seam_search();
                 }
-                // A bridge of length `d` within reach, and shorter than the best so far (a
-                // pair passed over for that one is left open).
-                let better = |d: f32, best: &Option<(f32, usize, Site)>, open: &mut bool| {
-                    let shorter = best.as_ref().is_none_or(|b| d < b.0);
-                    *open |= d <= reach && !shorter;
-                    d <= reach && shorter
+                // A bridge of length `d` within reach, and shorter than the best so far.
+                let better = |d: f32, best: &Option<(f32, usize, Site)>| {
+                    d <= reach && best.as_ref().is_none_or(|b| d < b.0)
                 };
                 // The points of `u` every tenth of a road, each with the nearest point of `v`
                 // and the distance to it.
@@ -124,32 +122,32 @@ impl OffsetSpiral {
                     .map(sample)
                     .reduce(|a, b| if b.2 < a.2 { b } else { a });
                 let Some((su, sv, d)) = nearest else { continue };
-                if !better(d, &best, &mut open) {
+                if !better(d, &best) {
                     continue;
                 }
                 if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w, seam) {
                     best = Some((d, u, site));
-                    open = true;
                     continue;
                 }
                 // Where the nearest point's stretch is taken (a join of the loop below already
                 // leaves there, random slice 9107's small loop at a peak of `D`), the nearest
                 // of the others whose bridge fits.
                 for (su, sv, d) in (0..samples).map(sample) {
-                    if better(d, &best, &mut open) {
+                    if better(d, &best) {
                         if let Some(site) = self.pinch_site(slice, (u, su), (v, sv), d, w, seam) {
                             best = Some((d, u, site));
-                            open = true;
                         }
                     }
                 }
             }
             if seam {
-                // The first unreached loop that has a seam join takes its shortest one.
+                // The first unreached loop that has a seam join takes its shortest one. One
+                // that has none was passed over for no other's (the search stops at the
+                // first that has one): none of its pairs gave a site.
                 if best.is_some() {
                     break;
                 }
-                if !open && !tests_plain() {
+                if !tests_plain() {
                     self.loops[u].seam_tried = self.visits;
                 }
             }
@@ -157,9 +155,12 @@ impl OffsetSpiral {
         best.map(|(_, u, site)| (u, site))
     }
 
-    /// The site of a pinch join ([`pinch_join`](Self::pinch_join)) from arc length `su` of loop
-    /// `u` to `sv` of loop `v`, `d` apart: where the channel is there and both stretches are
-    /// free.
+    /// The site of a pinch join ([`pinch_join`](Self::pinch_join)), or with `seam` of a join
+    /// across a seam ([`seam_join`](Self::seam_join)), from arc length `su` of loop `u` to `sv`
+    /// of loop `v`, `d` apart: where the channel is there and both stretches are free, with
+    /// the widest gap of [`PINCH_GAPS`] that fits (a seam's: a road or half a road, its loops
+    /// running opposite ways and its bridges square to them), `flip` where the two loops run
+    /// opposite ways.
     fn pinch_site(
         &self,
         slice: &Slice,
@@ -249,7 +250,7 @@ impl OffsetSpiral {
             // Across a seam each bridge crosses it, short and nearly square to the loops.
             let crosses_square = |p: Point, q: Point| {
                 let b = q - p;
-                b.norm() <= SEAM_ROADS * w && libm::fabsf(b.dot(tu)) <= (1.0 - SEAM_COS) * b.norm()
+                b.norm() <= SEAM_ROADS * w && libm::fabsf(b.dot(tu)) <= SEAM_SQUARE * b.norm()
             };
             if seam
                 && !(crosses_square(self.at(u, a1), self.at(v, b2))

@@ -243,9 +243,9 @@ impl OffsetSpiral {
                         let (x1, x2, child, y1, y2) = self.site_on(si, l);
                         let gap = wrap(x2 - x1, len);
                         let child_gap = wrap(y2 - y1, self.loops[child].length);
-                        // The child runs the other way round from its gap's end that faces
-                        // where this loop's walk reaches the gap, or, where the two loops run
-                        // opposite ways (`flip`), the same way from the other end.
+                        // Enter the child at its gap's end facing the one this walk reaches
+                        // (`y1`, or `y2` where the two loops run opposite ways: `flip`) and walk
+                        // it away from its gap: the other way round, or with `flip` the same.
                         let flip = self.sites[si].flip;
                         let (resume, enter) = match (top.forward, flip) {
                             (true, false) => (x2, y1),
