@@ -3,7 +3,8 @@
 //! joins for loops the strict search leaves alone.
 
 use super::{
-    capacity, wrap, OffsetSpiral, OffsetStats, Site, NONE, RELAXED_TOL, STRICT_TOL, TIGHT_ROUNDS,
+    capacity, wrap, OffsetSpiral, OffsetStats, Site, BRIDGE_GAPS, NONE, RELAXED_TOL, STRICT_TOL,
+    TIGHT_ROUNDS,
 };
 use crate::config::MAX_SITES;
 use crate::geometry::{polygon, polyline};
@@ -148,9 +149,9 @@ impl OffsetSpiral {
     /// by half a road: where full gaps leave a loop no room for its join (another extrusion
     /// start), the loops around each loop left unjoined are marked [`tight`](super::Loop) and
     /// the joins made again, their sites there with half-road gaps only, the rest still with
-    /// full ones, for up to [`TIGHT_ROUNDS`] rounds while starts remain. The way with the
-    /// fewest roads is kept, of those with half-road gaps on fewer loops: full gaps, the
-    /// marked loops, or half-road gaps everywhere (the last resort).
+    /// the wider ones ([`BRIDGE_GAPS`]), for up to [`TIGHT_ROUNDS`] rounds while starts remain.
+    /// The way with the fewest roads is kept, of those with half-road gaps on fewer loops: the
+    /// wider gaps, the marked loops, or half-road gaps everywhere (the last resort).
     pub(super) fn join(&mut self, slice: &Slice, stats: &mut OffsetStats) -> Result<(), Error> {
         let before = *stats;
         self.gaps_from = 0;
@@ -171,7 +172,7 @@ impl OffsetSpiral {
             return Ok(());
         }
         *stats = before;
-        self.gaps_from = 1;
+        self.gaps_from = (BRIDGE_GAPS.len() - 1) as u8;
         let half = self.join_with(slice, stats)?;
         if half < marked.min(full) {
             return Ok(());
