@@ -284,6 +284,23 @@ fn the_offset_spiral_covers_lattices_of_channels_across_their_seams() {
     }
 }
 
+/// A join across a seam between two features' first turns (which lie on their keep-out
+/// curves, each in its own feature's material) laid a move 0.016 off a feature's material on
+/// its curve (random slice 30186, 30 holes, from a seed never used to tune anything). Seam
+/// joins and wide pinch gaps keep off first turns now: every move that starts or ends on a
+/// keep-out curve is in that feature's material, and the spiral meets the bar.
+#[test]
+fn the_offset_spiral_keeps_seam_joins_off_the_keep_out_curves() {
+    let (m, _, what) = measured(30186, 1);
+    assert!(
+        m.feature_composition_error < 1e-3,
+        "{what}: {}",
+        m.feature_composition_error
+    );
+    assert_eq!(m.starts, 1, "{what}");
+    assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
+}
+
 /// Where a fan's band stays too wide for one road for a long way (two holes in a 41 mm wall at
 /// 0.5 mm roads, two in a 15 mm one at 0.25 mm), its meander of strokes across the band turned twice a road, and the four
 /// round corners where the turns of two neighbouring meanders meet left a star of bare ground

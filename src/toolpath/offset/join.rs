@@ -553,8 +553,8 @@ mod tests {
         });
     }
 
-    /// The same for joins across a seam, on a lattice of channels (6 x 6 round channels of
-    /// radius 0.25 mm, 2 mm apart, at 0.4 mm roads: every channel's second turn meets its
+    /// The same joins for joins across a seam, on a lattice of channels (6 x 6 round channels
+    /// of radius 0.25 mm, 2 mm apart, at 0.4 mm roads: every channel's second turn meets its
     /// neighbours' across a seam); and those joins are what reach the channels.
     #[test]
     // 36 holes: past the default build's capacity, within `large`'s (the workspace's tests
@@ -588,8 +588,11 @@ mod tests {
             assert!(stats.joins > 100, "{stats:?}");
             // Joins across a seam (loops running opposite ways) reach channels.
             assert!(joins.iter().filter(|j| j[6] == 1).count() > 20, "{stats:?}");
-            assert!(seams[0] > 500, "{seams:?}");
-            assert!(4 * seams[1] < seams[0], "{seams:?}");
+            // Since first turns take no seam joins, the first unreached loop searched has one
+            // each time here, and the shortcut has nothing to skip (812 searches against 182
+            // while first turns took them): the same joins, and no more searches.
+            assert!(seams[0] > 100, "{seams:?}");
+            assert!(seams[1] <= seams[0], "{seams:?}");
         });
     }
 }
