@@ -263,18 +263,19 @@ fn the_offset_spiral_joins_the_channels_of_a_dense_lattice_in_one_road() {
     }
 }
 
-/// Lattices whose offset spirals missed the bar (coverage 0.947-0.964, overfill up to 0.077):
+/// Lattices whose offset spirals missed the bar (coverage 0.947-0.964):
 /// each channel was reached only through the small loop in a pocket where three or four cells
 /// meet, by two pairs of overlapping bridges; the bridges into a small turn round a channel
 /// converged onto each other; and the last turns, widening toward a seam met at a slant, gave
 /// up half of what fit. Loops of one level are joined across the seam now
-/// (`toolpath::offset::pinch::seam_join`), a join's bridges run parallel, and the widening is
+/// (`toolpath::offset::pinch::seam_join`), a join's bridges onto turns above the first run
+/// parallel, and the widening is
 /// bisected (`toolpath::offset::ridge::widened`): each meets the bar, one road.
 #[test]
 fn the_offset_spiral_covers_lattices_of_channels_across_their_seams() {
     for r in lattices()
         .into_iter()
-        .filter(|r| [4, 6, 30, 36].contains(&r.seed))
+        .filter(|r| [4, 6, 18, 36].contains(&r.seed))
     {
         let (m, _, what) = measured_slice(&r, 1);
         assert_eq!(m.starts, 1, "{what}");
@@ -286,19 +287,23 @@ fn the_offset_spiral_covers_lattices_of_channels_across_their_seams() {
 
 /// A join across a seam between two features' first turns (which lie on their keep-out
 /// curves, each in its own feature's material) laid a move 0.016 off a feature's material on
-/// its curve (random slice 30186, 30 holes, from a seed never used to tune anything). Seam
-/// joins and wide pinch gaps keep off first turns now: every move that starts or ends on a
-/// keep-out curve is in that feature's material, and the spiral meets the bar.
+/// its curve (random slice 30186, 30 holes, from a seed never used to tune anything); and a
+/// strict join's gap moved along a first turn so that its bridges ran parallel, 0.038 (random
+/// slice 5118, 38 holes). Seam joins, wide pinch gaps and moved gaps keep off first turns
+/// now: every move that starts or ends on a keep-out curve is in that feature's material,
+/// and the spiral meets the bar.
 #[test]
 fn the_offset_spiral_keeps_seam_joins_off_the_keep_out_curves() {
-    let (m, _, what) = measured(30186, 1);
-    assert!(
-        m.feature_composition_error < 1e-3,
-        "{what}: {}",
-        m.feature_composition_error
-    );
-    assert_eq!(m.starts, 1, "{what}");
-    assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
+    for seed in [30186, 5118] {
+        let (m, _, what) = measured(seed, 1);
+        assert!(
+            m.feature_composition_error < 1e-3,
+            "{what}: {}",
+            m.feature_composition_error
+        );
+        assert_eq!(m.starts, 1, "{what}");
+        assert!(m.coverage >= 0.97 && m.overfill <= 0.04, "{what}");
+    }
 }
 
 /// Where a fan's band stays too wide for one road for a long way (two holes in a 41 mm wall at
