@@ -202,12 +202,11 @@ impl OffsetSpiral {
         let low = (0.5 * (1.0 - NARROWING) * w).fmax(cu.fmin(cv) - 0.5 * w) - 1e-4;
         let high = cu.fmax(cv) + 0.5 * w + 1e-4;
         let mut rises = false;
-        for i in 0..=m {
-            let c = slice.clearance(pu.lerp(pv, i as f32 / m as f32));
-            if c < low {
-                return None;
-            }
+        if !clear_along(slice, pu, pv, m, |c| {
             rises |= c > high;
+            c >= low
+        }) {
+            return None;
         }
         // Where the distance rises past the upper bound, a turn a level above must not run
         // near the bridge itself (not only its box: a turn that runs round the whole slice,
@@ -275,10 +274,7 @@ impl OffsetSpiral {
                 for &p in &ends_u {
                     for &q in &ends_v {
                         let m = libm::ceilf(p.dist(q) / step).fmax(1.0) as usize;
-                        if (0..=m).any(|i| {
-                            let c = slice.clearance(p.lerp(q, i as f32 / m as f32));
-                            c < low
-                        }) {
+                        if !clear_along(slice, p, q, m, |c| c >= low) {
                             return None;
                         }
                     }
@@ -295,4 +291,16 @@ impl OffsetSpiral {
             })
         })
     }
+}
+
+/// Whether `ok` holds for the clearance at each of the `m + 1` points from `p` to `q`, in order
+/// (stopping at the first that fails): the channel along a bridge.
+fn clear_along(
+    slice: &Slice,
+    p: Point,
+    q: Point,
+    m: usize,
+    mut ok: impl FnMut(f32) -> bool,
+) -> bool {
+    (0..=m).all(|i| ok(slice.clearance(p.lerp(q, i as f32 / m as f32))))
 }
