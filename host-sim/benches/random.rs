@@ -4,10 +4,12 @@
 //! spill < 0.0005).
 //!
 //! `cargo bench -p host-sim --bench random` draws 200 slices from seed 1;
-//! `HOLLOWPATH_SLICES=N`, `HOLLOWPATH_SEED=S` and `HOLLOWPATH_MAX_HOLES=H` change that, and
+//! `HOLLOWPATH_SLICES=N`, `HOLLOWPATH_SEED=S`, `HOLLOWPATH_MAX_HOLES=H` and `HOLLOWPATH_GAP=G`
+//! (the least gap between features, in roads: 1.5) change that, and
 //! `HOLLOWPATH_DUMP=DIR` writes every slice that misses the bar there as a slice file (its
 //! seed in the name, `simplify_tolerance` 0 so that its contours stay as drawn) to plan again
-//! with `hollowpath plan`; `HOLLOWPATH_CSV=FILE` writes every
+//! with `hollowpath plan` (with `HOLLOWPATH_DUMP_ALL=1` every slice, to look at one that
+//! meets it); `HOLLOWPATH_CSV=FILE` writes every
 //! slice's figures per layer there. `HOLLOWPATH_LATTICE=1` measures the 48 regular arrays of
 //! channels of `random_slice::lattices` instead (their number in the seed's place; dumped as
 //! `lattice-N.json`).
@@ -101,9 +103,11 @@ fn bench() {
     let seed = env("HOLLOWPATH_SEED", 1u64);
     let how = Draw {
         max_holes: env("HOLLOWPATH_MAX_HOLES", Draw::default().max_holes),
+        gap: env("HOLLOWPATH_GAP", Draw::default().gap),
         ..Draw::default()
     };
     let dump = std::env::var("HOLLOWPATH_DUMP").ok();
+    let dump_all = env("HOLLOWPATH_DUMP_ALL", 0u32) != 0;
     let lattice = env("HOLLOWPATH_LATTICE", 0u32) != 0;
     let slices = if lattice {
         lattices()
@@ -214,7 +218,7 @@ fn bench() {
     if let Some(dir) = dump {
         std::fs::create_dir_all(&dir).unwrap();
         for o in &outcomes {
-            if o.2.iter().all(|m| m.as_ref().is_ok_and(meets)) {
+            if !dump_all && o.2.iter().all(|m| m.as_ref().is_ok_and(meets)) {
                 continue;
             }
             let r = slices.iter().find(|r| r.seed == o.0).unwrap();

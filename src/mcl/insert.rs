@@ -20,7 +20,7 @@ use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, polyline, Point};
 use crate::keep_out::{KeepOut, Side};
 use crate::mcl::{Half, HalfEnd, Halves};
-use crate::slice::Nearest;
+use crate::slice::{Feature, Nearest};
 use crate::stats::PlanStats;
 use crate::{Error, FeatureId, Limit, Slice};
 
@@ -290,7 +290,7 @@ fn trace_half(
         stats.failed_traces += 1;
         return Ok(false);
     }
-    let Some(end) = trace(slice, field, i, start, scratch) else {
+    let Some(end) = trace(slice, field, i, start, normal, scratch) else {
         if scratch.len() >= TRACE_POINTS - 1 {
             return Err(Error::Capacity {
                 limit: Limit::TracePoints,
@@ -331,13 +331,75 @@ fn trace_half(
     Ok(true)
 }
 
-/// Follows the field from `start` in the cell of hole `i` until the cell boundary, into
-/// `out`. `None` if the line does not reach the boundary.
+/// The turns, as (cosine, sine), a climbing step tries away from the direction that came
+/// within half a road of the hole: 15 to 75 degrees either side, nearest first, so that of
+/// directions equally far from the hole the least turned is taken.
+const CLIMB_TURNS: [(f32, f32); 10] = [
+    (0.965_925_8, 0.258_819_04),
+    (0.965_925_8, -0.258_819_04),
+    (0.866_025_4, 0.5),
+    (0.866_025_4, -0.5),
+    (0.707_106_77, 0.707_106_77),
+    (0.707_106_77, -0.707_106_77),
+    (0.5, 0.866_025_4),
+    (0.5, -0.866_025_4),
+    (0.258_819_04, 0.965_925_8),
+    (0.258_819_04, -0.965_925_8),
+];
+/// How far, in road widths, a line may climb (out of a notch) before it is given up: in a
+/// slot deeper than that, whose sides its steps would cross to and fro, climbing between
+/// steps that do not, it traces no half, as before climbing.
+const MAX_CLIMB_ROADS: f32 = 4.0;
+
+/// A climbing step from `p` (see [`trace`]): of the directions [`CLIMB_TURNS`] away from
+/// `dir` that keep going on along `heading` (the direction the line came in), the one whose
+/// step of `step` ends farthest from `hole`, if that is at least `half` (less rounding).
+/// Where a normal from one side of a notch points at the other, the farthest step runs out
+/// along the notch's middle; a step back into the notch is never taken, so the line cannot
+/// walk to and fro.
+fn climb(
+    hole: &Feature,
+    p: Point,
+    dir: Point,
+    heading: Point,
+    step: f32,
+    half: f32,
+) -> Option<Point> {
+    let mut best: Option<(f32, Point)> = None;
+    for (c, s) in CLIMB_TURNS {
+        let d = Point::new(dir.x * c - dir.y * s, dir.x * s + dir.y * c);
+        if d.dot(heading) <= CLIMB_HEADING_COS * heading.norm() {
+            continue;
+        }
+        let q = p + d * step;
+        let dq = hole.nearest(q).distance;
+        if best.is_none_or(|(b, _)| dq > b) {
+            best = Some((dq, q));
+        }
+    }
+    best.filter(|&(dq, _)| dq >= half - 1e-3).map(|(_, q)| q)
+}
+
+/// How far off the line's heading a climbing step may turn: at most about 84 degrees
+/// (cosine 0.1), never back.
+const CLIMB_HEADING_COS: f32 = 0.1;
+
+/// Follows the field from `start` (where hole `i`'s keep-out curve has the outward normal
+/// `normal`) in the cell of hole `i` until the cell boundary, into `out`. `None` if the line
+/// does not reach the boundary.
+///
+/// Within a grid step of the hole the line follows the hole's own normal (the field's grid is
+/// too coarse there). In a notch a little wider than a road (a star's, between two spikes)
+/// the keep-out curve's point lies at the notch's bottom, half a road from both sides, where
+/// that normal, taken from one side, steps towards the other: such a step *climbs* instead,
+/// along the direction of [`CLIMB_TURNS`] that keeps farthest from the hole, out along the
+/// notch's middle (see there).
 fn trace(
     slice: &Slice,
     field: &Field,
     i: usize,
     start: Point,
+    normal: Point,
     out: &mut Vec<Point, TRACE_POINTS>,
 ) -> Option<HalfEnd> {
     let w = slice.settings().road_width;
@@ -397,57 +459,73 @@ fn trace(
     // millionth off the bound besides, more than the subtraction can round, so a bound
     // carried over many steps stays below the clearance.
     let mut wall_p = slice.wall_clearance(p);
+    // The direction the line last moved in (not normalised: the curve's normal at the start,
+    // then the last step), and how many steps have climbed.
+    let (mut heading, mut climbs) = (normal, 0u32);
+    let most_climbs = libm::ceilf(MAX_CLIMB_ROADS * w / step) as u32;
     while out.len() < TRACE_POINTS - 1 {
         let d1 = direction(p, lo_p, near_p);
         let mid = p + d1 * (0.5 * step);
         let lo_mid = lo_p - mid.dist(p) - polygon::rounding_slack(mid, hole_box);
         let d2 = direction(mid, lo_mid, None);
-        let q = p + d2 * step;
-        let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
-        let wall_q = if bound > half + polygon::rounding_slack(q, slice.wall().bbox()) {
-            bound
-        } else {
-            slice.wall_clearance(q)
-        };
-        if wall_q < half {
-            let e = bisect(p, q, |x| slice.wall_clearance(x) - half);
-            out.push(e).ok()?;
-            return Some(HalfEnd::Wall);
-        }
-        let moved = q.dist(p) + polygon::rounding_slack(q, hole_box);
-        let (lo_q, hi_q) = (lo_p - moved, hi_p + moved);
-        let near_q = if far(lo_q) && !other_box_within(q, hi_q) {
-            None
-        } else {
-            Some(slice.holes()[i].nearest(q))
-        };
-        let (lo_q, hi_q) = match near_q {
-            Some(near) => {
-                let dq = near.distance;
-                if other_within(q, dq) {
-                    // Which side of the bisector `x` lies on (`others(x).1 - own(x)`'s
-                    // sign), measuring only the holes whose box is near enough to decide.
-                    let side = |x: Point| {
-                        let nearer = other_within(x, own(x));
-                        debug_assert_eq!(!nearer, others(x).1 - own(x) > 0.0, "side at {x:?}");
-                        if nearer {
-                            -1.0
-                        } else {
-                            1.0
-                        }
-                    };
-                    let e = bisect(p, q, side);
-                    let (j, _) = others(e);
-                    out.push(e).ok()?;
-                    return Some(HalfEnd::Bisector(j as u8));
-                }
-                if dq < half - 1e-3 {
-                    return None;
-                }
-                (dq, dq)
+        let mut q = p + d2 * step;
+        let mut climbed = false;
+        // Once, or twice where the step came within half a road of the hole and climbs.
+        let (wall_q, near_q, lo_q, hi_q) = loop {
+            let bound = wall_p - q.dist(p) - 1e-6 * (1.0 + wall_p.abs());
+            let wall_q = if bound > half + polygon::rounding_slack(q, slice.wall().bbox()) {
+                bound
+            } else {
+                slice.wall_clearance(q)
+            };
+            if wall_q < half {
+                let e = bisect(p, q, |x| slice.wall_clearance(x) - half);
+                out.push(e).ok()?;
+                return Some(HalfEnd::Wall);
             }
-            None => (lo_q, hi_q),
+            let moved = q.dist(p) + polygon::rounding_slack(q, hole_box);
+            let (lo_q, hi_q) = (lo_p - moved, hi_p + moved);
+            let near_q = if far(lo_q) && !other_box_within(q, hi_q) {
+                None
+            } else {
+                Some(slice.holes()[i].nearest(q))
+            };
+            let (lo_q, hi_q) = match near_q {
+                Some(near) => {
+                    let dq = near.distance;
+                    if other_within(q, dq) {
+                        // Which side of the bisector `x` lies on (`others(x).1 - own(x)`'s
+                        // sign), measuring only the holes whose box is near enough to decide.
+                        let side = |x: Point| {
+                            let nearer = other_within(x, own(x));
+                            debug_assert_eq!(!nearer, others(x).1 - own(x) > 0.0, "side at {x:?}");
+                            if nearer {
+                                -1.0
+                            } else {
+                                1.0
+                            }
+                        };
+                        let e = bisect(p, q, side);
+                        let (j, _) = others(e);
+                        out.push(e).ok()?;
+                        return Some(HalfEnd::Bisector(j as u8));
+                    }
+                    if dq < half - 1e-3 {
+                        if climbed || climbs >= most_climbs {
+                            return None;
+                        }
+                        q = climb(&slice.holes()[i], p, d2, heading, step, half)?;
+                        climbed = true;
+                        continue;
+                    }
+                    (dq, dq)
+                }
+                None => (lo_q, hi_q),
+            };
+            break (wall_q, near_q, lo_q, hi_q);
         };
+        climbs += u32::from(climbed);
+        heading = q - p;
         out.push(q).ok()?;
         p = q;
         near_p = near_q;
@@ -455,4 +533,111 @@ fn trace(
         wall_p = wall_q;
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use std::boxed::Box;
+    use std::vec::Vec as StdVec;
+
+    use super::*;
+    use crate::plan::Planner;
+    use crate::{FeatureId, Settings};
+
+    /// A 30 mm square wall round a star of `spikes` rounded spikes (`r(a) = mean + depth *
+    /// cos(spikes * a)`, 64 vertices), roads `w` wide.
+    fn star_slice(spikes: usize, mean: f32, depth: f32, w: f32) -> Slice {
+        let wall = [(-15.0, -15.0), (15.0, -15.0), (15.0, 15.0), (-15.0, 15.0)]
+            .map(|(x, y)| Point::new(x, y));
+        let wall = Feature::new(FeatureId::Wall, &wall, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let star: StdVec<Point> = (0..64)
+            .map(|k| {
+                let a = core::f32::consts::TAU * k as f32 / 64.0;
+                let r = mean + depth * libm::cosf(spikes as f32 * a);
+                Point::new(r * libm::cosf(a), r * libm::sinf(a))
+            })
+            .collect();
+        let hole = Feature::new(FeatureId::Hole(0), &star, [0.0, 1.0, 0.0, 0.0]).unwrap();
+        Slice::new(wall, &[hole], Settings::for_road_width(w)).unwrap()
+    }
+
+    /// The angles, round the origin, at which the plan's MCLs start.
+    fn start_angles(plan: &crate::Plan) -> StdVec<f32> {
+        (plan.mcls.iter())
+            .map(|m| {
+                let p = plan.points(m)[0];
+                libm::atan2f(p.y, p.x)
+            })
+            .collect()
+    }
+
+    /// A star whose notches are a road wide somewhat less than half a road out (random slice
+    /// 5029's small star, 2.3 mm across at 0.58 mm roads): its keep-out curve's points there
+    /// lie where the notch is a road wide, half a road from both sides, and the hole's normal,
+    /// taken from one side, steps towards the other. Lines climb out of every notch, so MCLs
+    /// leave every one of them; no line comes within half a road of the star. Without
+    /// climbing the lines from the notches failed: 8 MCLs left the star (104 with), most
+    /// notches had none, and the ground beyond them was left to the meanders.
+    #[test]
+    fn lines_climb_out_of_a_star_s_notches() {
+        let slice = star_slice(8, 0.91, 0.245, 0.58);
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(&slice).unwrap();
+        let star = &slice.holes()[0];
+        for m in &plan.mcls {
+            for p in plan.points(m).iter() {
+                assert!(star.nearest(*p).distance >= 0.5 * 0.58 - 2e-3, "{p:?}");
+            }
+        }
+        let angles = start_angles(plan);
+        for k in 0..8 {
+            let notch = core::f32::consts::PI * (2 * k + 1) as f32 / 8.0;
+            let off = |a: f32| {
+                let d = (a - notch).rem_euclid(core::f32::consts::TAU);
+                d.min(core::f32::consts::TAU - d)
+            };
+            assert!(
+                angles
+                    .iter()
+                    .any(|&a| off(a) < core::f32::consts::PI / 16.0),
+                "no MCL leaves notch {k}"
+            );
+        }
+    }
+
+    /// A square hole with a slot a road and a half wide and 10 roads deep: lines from the
+    /// slot's bottom climb at most [`MAX_CLIMB_ROADS`] and are given up, never walking to and
+    /// fro until the trace's buffer is full (which would refuse the slice); every line laid
+    /// keeps half a road from the hole.
+    #[test]
+    fn a_line_in_a_deep_slot_climbs_a_bounded_way() {
+        let w = 0.4;
+        let wall = [(-15.0, -15.0), (15.0, -15.0), (15.0, 15.0), (-15.0, 15.0)]
+            .map(|(x, y)| Point::new(x, y));
+        let wall = Feature::new(FeatureId::Wall, &wall, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        // A 6 mm square, the slot cut into its top edge.
+        let (a, d) = (0.75 * w, 10.0 * w);
+        let hole = [
+            (-3.0, -3.0),
+            (3.0, -3.0),
+            (3.0, 3.0),
+            (a, 3.0),
+            (a, 3.0 - d),
+            (-a, 3.0 - d),
+            (-a, 3.0),
+            (-3.0, 3.0),
+        ]
+        .map(|(x, y)| Point::new(x, y));
+        let hole = Feature::new(FeatureId::Hole(0), &hole, [0.0, 1.0, 0.0, 0.0]).unwrap();
+        let slice = Slice::new(wall, &[hole], Settings::for_road_width(w)).unwrap();
+        let mut planner = Box::new(Planner::new());
+        let plan = planner.plan(&slice).unwrap();
+        assert!(plan.mcls.len() > 16);
+        for m in &plan.mcls {
+            for p in plan.points(m).iter() {
+                let d = slice.holes()[0].nearest(*p).distance;
+                assert!(d >= 0.5 * w - 2e-3, "{p:?} {d}");
+            }
+        }
+    }
 }
