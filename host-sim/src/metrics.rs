@@ -31,7 +31,10 @@
 //!   it is `None` are skipped;
 //! - `feature_composition_error`: the largest half-L1 deviation between the mix of a
 //!   depositing move starting or ending on a feature's keep-out curve (half a road width from the feature, within
-//!   [`Options::keep_out_tol`]) and that feature's material.
+//!   [`Options::keep_out_tol`]) and that feature's material. Where features are closer than
+//!   a road their keep-out bands overlap: a point on one's curve within another's band (on
+//!   both curves, or inside the other's) can hold only one material, and deviates by the
+//!   smaller of theirs.
 
 use std::ops::Range;
 
@@ -292,7 +295,8 @@ pub fn planned_moves(path: &[Vertex]) -> Vec<Move> {
 }
 
 /// The largest half-L1 deviation between the mix laid where a depositing move starts or ends
-/// on a feature's keep-out curve and that feature's material.
+/// on a feature's keep-out curve and that feature's material (or, within another feature's
+/// keep-out band too, the nearer of the two materials).
 fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
     let half = 0.5 * slice.settings().road_width;
     let mut worst = 0.0f64;
@@ -313,16 +317,26 @@ fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
             moves[k + 1].material
         };
         for &p in ends {
+            // Judged where `p` lies on a feature's keep-out curve, against the material of
+            // each feature it lies on the curve of or within: where features are closer than
+            // a road their bands overlap, a road through the pinch touches both, and a point
+            // there can hold only one material; the nearest of theirs counts.
+            let (mut on_curve, mut here) = (false, f64::INFINITY);
+            let mut judge = |d: f32, material: &Material| {
+                on_curve |= (d - half).abs() < tol;
+                if d < half + tol {
+                    here = here.min(half_l1(&mix, material));
+                }
+            };
             for h in slice.holes() {
                 if polygon::bbox_distance(h.bbox(), p) > half + tol {
                     continue;
                 }
-                if (h.signed_distance(p) - half).abs() < tol {
-                    worst = worst.max(half_l1(&mix, &h.material()));
-                }
+                judge(h.signed_distance(p), &h.material());
             }
-            if (slice.wall_clearance(p) - half).abs() < tol {
-                worst = worst.max(half_l1(&mix, &slice.wall().material()));
+            judge(slice.wall_clearance(p), &slice.wall().material());
+            if on_curve {
+                worst = worst.max(here);
             }
         }
     }

@@ -646,3 +646,60 @@ fn every_extra_start_is_explained() {
     // One start, nothing to explain.
     assert!(explain_starts(&slice, &path[..2], "").is_empty());
 }
+
+/// Where two features are closer than a road their keep-out bands overlap and their curves
+/// cross, and a point on both can hold only one material: it deviates by the smaller of the
+/// two (before, by the larger, so every such point counted as laid in the wrong material,
+/// whichever it held). Within the other's band, off its curve, the same.
+#[test]
+fn a_point_on_two_keep_out_curves_holds_either_feature_s_material() {
+    use hollowpath::{Feature, FeatureId, Settings, Slice};
+    let square = |x0: f64| [p(x0, -1.0), p(x0 + 2.0, -1.0), p(x0 + 2.0, 1.0), p(x0, 1.0)];
+    let wall = [
+        p(-10.0, -10.0),
+        p(10.0, -10.0),
+        p(10.0, 10.0),
+        p(-10.0, 10.0),
+    ];
+    let wall = Feature::new(FeatureId::Wall, &wall, A).unwrap();
+    // Two squares 0.2 mm apart at 0.4 mm roads: their curves cross above and below the gap.
+    let left = Feature::new(FeatureId::Hole(0), &square(-2.1), B).unwrap();
+    let right = Feature::new(FeatureId::Hole(1), &square(0.1), C).unwrap();
+    let slice = Slice::new(wall, &[left, right], Settings::for_road_width(0.4)).unwrap();
+    let half = 0.2f32;
+    // Half a road from both squares' near corners, (-0.1, 1) and (0.1, 1).
+    let both = p(0.0, 1.0 + (0.2f64 * 0.2 - 0.1 * 0.1).sqrt());
+    for h in slice.holes() {
+        assert!((h.signed_distance(both) - half).abs() < 1e-4);
+    }
+    let mid = p(5.0, 5.0);
+    let v = |at: Point, material: Material, deposit: bool| Vertex {
+        at,
+        material,
+        width: 0.4,
+        deposit,
+    };
+    let opts = Options::with_cell(0.1);
+    let run_at = |at: Point, material: Material| {
+        let path = [v(at, material, false), v(mid, material, true)];
+        measure_with(&slice, Pattern::Zigzag, &path, &no_field, &opts).feature_composition_error
+    };
+    let run = |material: Material| run_at(both, material);
+    assert_eq!(run(B), 0.0);
+    assert_eq!(run(C), 0.0);
+    // Neither hole's material: off by the nearer of the two.
+    assert!((run(A) - 1.0).abs() < 1e-9);
+    let mixed = [0.0, 0.7, 0.3, 0.0];
+    assert!((run(mixed) - 0.3).abs() < 1e-6, "{}", run(mixed));
+    // On the left square's curve, 0.1 mm from the right square (inside its band): either.
+    let inside = p(0.1 * 0.6, 1.0 + (0.2f64 * 0.2 - 0.16 * 0.16).sqrt());
+    assert!((slice.holes()[0].signed_distance(inside) - half).abs() < 1e-4);
+    assert!(slice.holes()[1].signed_distance(inside) < half - 0.01);
+    assert_eq!(run_at(inside, B), 0.0);
+    assert_eq!(run_at(inside, C), 0.0);
+    assert!((run_at(inside, A) - 1.0).abs() < 1e-9);
+    // Beyond the right square's band, the left square's curve is its own.
+    let own = p(-2.3, 0.0);
+    assert!((run_at(own, C) - 1.0).abs() < 1e-9);
+    assert_eq!(run_at(own, B), 0.0);
+}

@@ -475,3 +475,25 @@ fn the_zigzag_traces_mcls_out_of_the_notches_of_small_stars() {
         zigzag_meets_the_bar(seed);
     }
 }
+
+/// Features drawn a road apart (`Draw::gap` 1.0: their keep-out curves may touch): a zigzag
+/// move from one feature's lining straight into another's blended all the way across
+/// (random slice 141: a piece ended on a hole's curve 0.76 off its material), and the offset
+/// spiral, which laid its layer without the lining, bridged two first turns through a pinch
+/// in a blend (slice 215: 0.4 off). Both layers hold each feature's own material on its
+/// keep-out curve now, with no spill.
+#[test]
+fn layers_line_features_a_road_apart_in_their_own_materials() {
+    let how = Draw {
+        gap: 1.0,
+        ..Draw::default()
+    };
+    for seed in [141, 215] {
+        let r = host_sim::random_slice::draw(seed, &how).expect("a slice");
+        for k in 0..2 {
+            let (m, _, what) = measured_slice(&r, k);
+            assert!(m.feature_composition_error < 1e-3, "{what}");
+            assert!(m.spill < 5e-4, "{what}");
+        }
+    }
+}

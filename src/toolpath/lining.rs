@@ -15,8 +15,10 @@
 //! a vertex, in that material, where a depositing move crosses the lining's edge to or from
 //! such a vertex, or dips past it between two vertices outside: every move that runs within
 //! the lining holds the feature's material, and a move that blends toward another material
-//! does so outside it. Where two features' linings meet (features closer than a road), the
-//! nearer feature's material is given and no crossing is put in between the two.
+//! does so outside it. A move from one feature's lining into another's, in another material,
+//! blends between the two edges where it runs outside both; where the linings meet
+//! (features closer than a road), the nearer feature's material is given and no crossing is
+//! put in between the two.
 
 use super::moves::pieces;
 use super::{PathSink, Vertex};
@@ -235,6 +237,39 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
                         self.put(&a, &c, t, fc)?;
                     }
                 }
+                // From one lining into another's, in another material, where the move runs
+                // between them outside both (two features a road or so apart: their linings
+                // do not meet): blend from where it leaves the one to where it enters the
+                // other. Before, the move blended all the way, and a piece of it ended on the
+                // first feature's keep-out curve in a mix of both (random slice 141 drawn
+                // with features a road apart: 0.76 off the hole's material).
+                (Some(fa), true)
+                    if fa != fc
+                        && a.material == self.material(fa)
+                        && c.material != a.material
+                        && len > 0.0 =>
+                {
+                    let (a_from_c, c_from_a) = (
+                        self.slice.clearance_to(fc, a.at),
+                        self.slice.clearance_to(fa, c.at),
+                    );
+                    if a_from_c >= edge && c_from_a >= edge {
+                        let leave = (recoloured_a || self.pieces_within(fa, &a, &c, da, c_from_a))
+                            .then(|| self.crossing(fa, a.at, c.at, 0.0, 1.0));
+                        let enter = (recoloured_c || self.pieces_within(fc, &c, &a, dc, a_from_c))
+                            .then(|| self.crossing(fc, a.at, c.at, 1.0, 0.0));
+                        // Only where the move leaves the one before it enters the other.
+                        let (t1, t2) = (leave.unwrap_or(0.0), enter.unwrap_or(1.0));
+                        if t1 < t2 {
+                            if let Some(t) = leave.filter(|&t| t > 0.0) {
+                                self.put(&a, &c, t, fa)?;
+                            }
+                            if let Some(t) = enter.filter(|&t| t < 1.0) {
+                                self.put(&a, &c, t, fc)?;
+                            }
+                        }
+                    }
+                }
                 // Both outside: the move may still dip past a lining's edge between them (a
                 // chord sagging past the curve, laid narrower). The distance falls by at most
                 // the way gone, so only a move longer than both ends' surplus can.
@@ -369,16 +404,23 @@ mod tests {
     /// (on its keep-out curve) is 0.1 mm off the right one. An arc along the left hole's
     /// curve through the pinch lays it in the left hole's material, and keeps it there; only a
     /// vertex in neither hole's material takes the nearer one's.
-    #[test]
-    fn a_vertex_within_two_linings_keeps_the_material_of_either_it_holds() {
-        const RIGHT: Material = [0.0, 0.0, 1.0, 0.0];
+    const RIGHT: Material = [0.0, 0.0, 1.0, 0.0];
+
+    /// Two 2 mm square holes, `HOLE` left and `RIGHT` right, their centres `cx` either side of
+    /// the origin, in a 20 mm wall; roads 0.4 mm.
+    fn two_holes(cx: f32) -> Slice {
         let square = |cx: f32, r: f32| {
             [(-r, -r), (r, -r), (r, r), (-r, r)].map(|(x, y)| Point::new(cx + x, y))
         };
         let wall = Feature::new(FeatureId::Wall, &square(0.0, 10.0), WALL).unwrap();
-        let left = Feature::new(FeatureId::Hole(0), &square(-1.15, 1.0), HOLE).unwrap();
-        let right = Feature::new(FeatureId::Hole(1), &square(1.15, 1.0), RIGHT).unwrap();
-        let slice = Slice::new(wall, &[left, right], Settings::for_road_width(0.4)).unwrap();
+        let left = Feature::new(FeatureId::Hole(0), &square(-cx, 1.0), HOLE).unwrap();
+        let right = Feature::new(FeatureId::Hole(1), &square(cx, 1.0), RIGHT).unwrap();
+        Slice::new(wall, &[left, right], Settings::for_road_width(0.4)).unwrap()
+    }
+
+    #[test]
+    fn a_vertex_within_two_linings_keeps_the_material_of_either_it_holds() {
+        let slice = two_holes(1.15);
         let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
         let mut lining = Lining::new(&mut out, &slice);
         for x in [
@@ -392,5 +434,34 @@ mod tests {
         assert_eq!(lining.recoloured, 1);
         let materials: heapless::Vec<Material, 16> = out.iter().map(|x| x.material).collect();
         assert_eq!(&materials[..], &[HOLE, HOLE, HOLE, RIGHT], "{out:?}");
+    }
+
+    /// Two holes 0.5 mm apart (a road and a quarter): their keep-out curves run 0.1 mm apart
+    /// through the pinch, their linings' edges 0.092 mm. A move straight across from the left
+    /// curve, in the left hole's material, to the right one, in the right's, blends only
+    /// between the two edges: a vertex in each material where it leaves the one lining and
+    /// enters the other. Before, it blended all the way, and its pieces ended within both
+    /// linings in mixes of the two.
+    #[test]
+    fn a_move_from_one_lining_into_another_blends_between_them() {
+        let slice = two_holes(1.25);
+        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
+        let mut lining = Lining::new(&mut out, &slice);
+        for x in [
+            v(-0.05, -0.5, HOLE),
+            v(-0.05, 0.0, HOLE),
+            v(0.05, 0.0, RIGHT),
+        ] {
+            lining.push_vertex(x).unwrap();
+        }
+        assert_eq!((lining.crossings, lining.recoloured), (2, 0), "{out:?}");
+        let edge = (0.5 + LINING_TOL) * 0.4;
+        for (x, material, at) in [(&out[2], HOLE, -0.05), (&out[3], RIGHT, 0.05)] {
+            assert_eq!(x.material, material, "{out:?}");
+            // Just beyond the lining's edge, on the move.
+            let d = (x.at.x - at).abs();
+            assert!(d > edge - 0.2 - 1e-4 && d < edge - 0.2 + 1e-3, "{out:?}");
+            assert!(x.at.y.abs() < 1e-6, "{out:?}");
+        }
     }
 }
