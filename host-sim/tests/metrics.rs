@@ -521,6 +521,28 @@ fn at_distance(f: impl Fn(Point) -> f32, from: (f64, f64), to: (f64, f64), d: f3
     at(0.5 * (lo + hi))
 }
 
+/// A vertex of a 0.4 mm road.
+fn road_vertex(at: Point, material: Material, deposit: bool) -> Vertex {
+    Vertex {
+        at,
+        material,
+        width: 0.4,
+        deposit,
+    }
+}
+
+/// `path`'s `feature_composition_error` on `slice` (a 0.1 mm raster).
+fn keep_out_error(slice: &hollowpath::Slice, path: &[Vertex]) -> f64 {
+    measure_with(
+        slice,
+        Pattern::Zigzag,
+        path,
+        &no_field,
+        &Options::with_cell(0.1),
+    )
+    .feature_composition_error
+}
+
 #[test]
 fn feature_composition_error_is_the_worst_keep_out_vertex() {
     let slice = two_holes();
@@ -534,16 +556,8 @@ fn feature_composition_error_is_the_worst_keep_out_vertex() {
     assert!((hole.signed_distance(on_hole) - half).abs() < 1e-4);
     assert!((slice.wall_clearance(on_wall) - half).abs() < 1e-4);
     let mid = p(2.0, -6.0);
-    let v = |at: Point, material: Material, deposit: bool| Vertex {
-        at,
-        material,
-        width: 0.4,
-        deposit,
-    };
-    let opts = Options::with_cell(0.1);
-    let run = |path: &[Vertex]| {
-        measure_with(&slice, Pattern::Zigzag, path, &no_field, &opts).feature_composition_error
-    };
+    let v = road_vertex;
+    let run = |path: &[Vertex]| keep_out_error(&slice, path);
     let near_b = [0.7, 0.3, 0.0, 0.0];
     let near_a = [0.9, 0.1, 0.0, 0.0];
     // A road starts on the hole's curve (0.7 off its material) and ends on the wall's (0.1 off).
@@ -673,16 +687,12 @@ fn a_point_on_two_keep_out_curves_holds_either_feature_s_material() {
         assert!((h.signed_distance(both) - half).abs() < 1e-4);
     }
     let mid = p(5.0, 5.0);
-    let v = |at: Point, material: Material, deposit: bool| Vertex {
-        at,
-        material,
-        width: 0.4,
-        deposit,
-    };
-    let opts = Options::with_cell(0.1);
     let run_at = |at: Point, material: Material| {
-        let path = [v(at, material, false), v(mid, material, true)];
-        measure_with(&slice, Pattern::Zigzag, &path, &no_field, &opts).feature_composition_error
+        let path = [
+            road_vertex(at, material, false),
+            road_vertex(mid, material, true),
+        ];
+        keep_out_error(&slice, &path)
     };
     let run = |material: Material| run_at(both, material);
     assert_eq!(run(B), 0.0);

@@ -325,9 +325,13 @@ mod tests {
     }
 
     fn run(vs: &[Vertex]) -> (heapless::Vec<Vertex, 16>, u32, u32) {
-        let slice = slice();
+        run_on(&slice(), vs)
+    }
+
+    /// `vs` through a lining of `slice`: what it passes on, its crossings and recolourings.
+    fn run_on(slice: &Slice, vs: &[Vertex]) -> (heapless::Vec<Vertex, 16>, u32, u32) {
         let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
-        let mut lining = Lining::new(&mut out, &slice);
+        let mut lining = Lining::new(&mut out, slice);
         for &x in vs {
             lining.push_vertex(x).unwrap();
         }
@@ -420,18 +424,16 @@ mod tests {
 
     #[test]
     fn a_vertex_within_two_linings_keeps_the_material_of_either_it_holds() {
-        let slice = two_holes(1.15);
-        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
-        let mut lining = Lining::new(&mut out, &slice);
-        for x in [
-            v(0.05, -0.5, HOLE),
-            v(0.05, 0.0, HOLE),
-            v(0.05, 0.5, HOLE),
-            v(0.05, 0.6, WALL),
-        ] {
-            lining.push_vertex(x).unwrap();
-        }
-        assert_eq!(lining.recoloured, 1);
+        let (out, _, recoloured) = run_on(
+            &two_holes(1.15),
+            &[
+                v(0.05, -0.5, HOLE),
+                v(0.05, 0.0, HOLE),
+                v(0.05, 0.5, HOLE),
+                v(0.05, 0.6, WALL),
+            ],
+        );
+        assert_eq!(recoloured, 1);
         let materials: heapless::Vec<Material, 16> = out.iter().map(|x| x.material).collect();
         assert_eq!(&materials[..], &[HOLE, HOLE, HOLE, RIGHT], "{out:?}");
     }
@@ -444,17 +446,13 @@ mod tests {
     /// linings in mixes of the two.
     #[test]
     fn a_move_from_one_lining_into_another_blends_between_them() {
-        let slice = two_holes(1.25);
-        let mut out: heapless::Vec<Vertex, 16> = heapless::Vec::new();
-        let mut lining = Lining::new(&mut out, &slice);
-        for x in [
+        let vs = [
             v(-0.05, -0.5, HOLE),
             v(-0.05, 0.0, HOLE),
             v(0.05, 0.0, RIGHT),
-        ] {
-            lining.push_vertex(x).unwrap();
-        }
-        assert_eq!((lining.crossings, lining.recoloured), (2, 0), "{out:?}");
+        ];
+        let (out, crossings, recoloured) = run_on(&two_holes(1.25), &vs);
+        assert_eq!((crossings, recoloured), (2, 0), "{out:?}");
         let edge = (0.5 + LINING_TOL) * 0.4;
         for (x, material, at) in [(&out[2], HOLE, -0.05), (&out[3], RIGHT, 0.05)] {
             assert_eq!(x.material, material, "{out:?}");
