@@ -49,7 +49,7 @@
 //!   sliver, and never wider than twice the clearance from the features. The default
 //!   layers pass through [`Despike`](toolpath::despike::Despike), which drops a vertex where
 //!   the road would run a fraction of a road past and straight back (a dead stop for a
-//!   printer); the zigzag then through [`Lining`](toolpath::lining::Lining), which lays every
+//!   printer); then through [`Lining`](toolpath::lining::Lining), which lays every
 //!   stretch of road nearer a feature than its keep-out curve (and a hair beyond) in that
 //!   feature's material, so each channel is lined with its own.
 //!

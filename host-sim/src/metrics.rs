@@ -296,7 +296,7 @@ pub fn planned_moves(path: &[Vertex]) -> Vec<Move> {
 
 /// The largest half-L1 deviation between the mix laid where a depositing move starts or ends
 /// on a feature's keep-out curve and that feature's material (or, within another feature's
-/// keep-out band too, the nearer of the two materials).
+/// keep-out band too, either material: the smaller deviation).
 fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
     let half = 0.5 * slice.settings().road_width;
     let mut worst = 0.0f64;
@@ -320,7 +320,7 @@ fn feature_error(slice: &Slice, moves: &[Move], tol: f32) -> f64 {
             // Judged where `p` lies on a feature's keep-out curve, against the material of
             // each feature it lies on the curve of or within: where features are closer than
             // a road their bands overlap, a road through the pinch touches both, and a point
-            // there can hold only one material; the nearest of theirs counts.
+            // there can hold only one material: the smallest deviation from theirs counts.
             let (mut on_curve, mut here) = (false, f64::INFINITY);
             let mut judge = |d: f32, material: &Material| {
                 on_curve |= (d - half).abs() < tol;

@@ -697,11 +697,11 @@ fn a_point_on_two_keep_out_curves_holds_either_feature_s_material() {
     let run = |material: Material| run_at(both, material);
     assert_eq!(run(B), 0.0);
     assert_eq!(run(C), 0.0);
-    // Neither hole's material: off by the nearer of the two.
+    // Neither hole's material: off by the smaller of the two deviations.
     assert!((run(A) - 1.0).abs() < 1e-9);
     let mixed = [0.0, 0.7, 0.3, 0.0];
     assert!((run(mixed) - 0.3).abs() < 1e-6, "{}", run(mixed));
-    // On the left square's curve, 0.1 mm from the right square (inside its band): either.
+    // On the left square's curve, 0.126 mm from the right square (inside its band): either.
     let inside = p(0.1 * 0.6, 1.0 + (0.2f64 * 0.2 - 0.16 * 0.16).sqrt());
     assert!((slice.holes()[0].signed_distance(inside) - half).abs() < 1e-4);
     assert!(slice.holes()[1].signed_distance(inside) < half - 0.01);

@@ -355,8 +355,8 @@ const MAX_CLIMB_ROADS: f32 = 4.0;
 /// `dir` that keep going on along `heading` (the direction the line came in), the one whose
 /// step of `step` ends farthest from `hole`, if that is at least `half` (less rounding).
 /// Where a normal from one side of a notch points at the other, the farthest step runs out
-/// along the notch's middle; a step back into the notch is never taken, so the line cannot
-/// walk to and fro.
+/// along the notch's middle. No single step turns back on the line's heading; a line that
+/// climbs step after step could still turn round, which [`MAX_CLIMB_ROADS`] bounds.
 fn climb(
     hole: &Feature,
     p: Point,
@@ -390,10 +390,10 @@ const CLIMB_HEADING_COS: f32 = 0.1;
 ///
 /// Within a grid step of the hole the line follows the hole's own normal (the field's grid is
 /// too coarse there). In a notch a little wider than a road (a star's, between two spikes)
-/// the keep-out curve's point lies at the notch's bottom, half a road from both sides, where
-/// that normal, taken from one side, steps towards the other: such a step *climbs* instead,
-/// along the direction of [`CLIMB_TURNS`] that keeps farthest from the hole, out along the
-/// notch's middle (see there).
+/// the keep-out curve's point lies where the notch is a road wide, half a road from both
+/// sides, where that normal, taken from one side, steps towards the other: such a step
+/// *climbs* instead, along the direction of [`CLIMB_TURNS`] that keeps farthest from the
+/// hole, out along the notch's middle (see there).
 fn trace(
     slice: &Slice,
     field: &Field,
@@ -605,10 +605,11 @@ mod tests {
         }
     }
 
-    /// A square hole with a slot a road and a half wide and 10 roads deep: lines from the
-    /// slot's bottom climb at most [`MAX_CLIMB_ROADS`] and are given up, never walking to and
-    /// fro until the trace's buffer is full (which would refuse the slice); every line laid
-    /// keeps half a road from the hole.
+    /// A square hole with a slot a road and a half wide and 10 roads deep. Climbing without a
+    /// bound, a line from the slot's bottom crossed it to and fro until the trace's buffer was
+    /// full, which refused the slice; with [`MAX_CLIMB_ROADS`] the slice plans (as it did
+    /// before lines climbed, when they were given up at once), and every line laid keeps half
+    /// a road from the hole.
     #[test]
     fn a_line_in_a_deep_slot_climbs_a_bounded_way() {
         let w = 0.4;

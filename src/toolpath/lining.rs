@@ -16,7 +16,8 @@
 //! such a vertex, or dips past it between two vertices outside: every move that runs within
 //! the lining holds the feature's material, and a move that blends toward another material
 //! does so outside it. A move from one feature's lining into another's, in another material,
-//! blends between the two edges where it runs outside both; where the linings meet
+//! where it runs outside both between them and a piece of it would end within either (as for
+//! one lining), blends between the two edges only; where the linings meet
 //! (features closer than a road), the nearer feature's material is given and no crossing is
 //! put in between the two.
 
