@@ -3,10 +3,10 @@
 //! `cargo bench -p host-sim --bench random` runs the same on 200 slices and prints the
 //! distribution. What holds everywhere today is asserted as the bar: no spill, widths within
 //! the limits, one road and each feature's material on its keep-out curve for the offset spiral.
-//! The offset spiral holds the bar (coverage >= 0.97 and overfill <= 0.04, every one of the
-//! benchmark's 200 slices), both layers each feature's own material on its keep-out curve,
-//! the zigzag's coverage at 0.965, its overfill at 0.04 and its starts at one; the rest is
-//! the benchmark's to report.
+//! Both layers hold the bar on the ten slices drawn here (coverage >= 0.97, overfill <= 0.04,
+//! one start, each feature's own material on its keep-out curve; the offset spiral on every
+//! one of the benchmark's 200 slices, the zigzag on 198); the rest is the benchmark's to
+//! report.
 
 use host_sim::layers::{layer, Fill, Layer};
 use host_sim::metrics::{LayerMetrics, Meter, Options};
@@ -40,7 +40,7 @@ fn default_layers_on_random_slices_as_printed() {
                 "{what}"
             );
             if k == 0 {
-                // The zigzag: overfill at the bar, coverage within a hair of it. Its meanders
+                // The zigzag: the bar. Its meanders
                 // fill the bands where MCLs fan apart (coverage 0.86-0.97 on these slices
                 // until the strokes stopped standing on one grid along each MCL, which left
                 // whole sectors of a fan bare). Since strong fans take halves from starts a
@@ -49,8 +49,9 @@ fn default_layers_on_random_slices_as_printed() {
                 // 1006, fell from 0.975 to 0.968 with that change: in a lobe of its wall the
                 // denser fan's strokes stop short of the wall. (Seed 1002 went the other way:
                 // its overfill, 0.043 in a lobe far from every hole that the fan reached with
-                // MCLs many roads apart, is 0.037.)
-                assert!(m.coverage >= 0.965, "{what}");
+                // MCLs many roads apart, is 0.037.) Since then all ten meet the bar (coverage
+                // 0.982-0.991, overfill 0.024-0.033), held at the bar itself now.
+                assert!(m.coverage >= 0.97, "{what}");
                 assert!(m.overfill <= 0.04, "{what}");
                 // One road: a move that crosses a thin feature goes round it, one that sags
                 // into a keep-out band is laid narrower (before, one of them needed 11 starts
