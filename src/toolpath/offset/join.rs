@@ -116,12 +116,6 @@ impl OffsetSpiral {
         ends: (f32, f32),
         w: f32,
     ) -> Option<(f32, f32)> {
-        // Not on a first turn, which lies on its feature's keep-out curve: there a moved end
-        // laid a bridge off the feature's material (random slice 5118, 38 holes: 0.038, where
-        // the bar is 0.001; not understood yet).
-        if self.loops[b].level == 0 {
-            return None;
-        }
         let lenb = self.loops[b].length;
         let chord_a = self.at(a, a1).dist(self.at(a, a2));
         let gap = wrap(ends.1 - ends.0, lenb);
@@ -594,11 +588,11 @@ mod tests {
             assert!(stats.joins > 100, "{stats:?}");
             // Joins across a seam (loops running opposite ways) reach channels.
             assert!(joins.iter().filter(|j| j[6] == 1).count() > 20, "{stats:?}");
-            // Since first turns take no seam joins, the first unreached loop searched has one
-            // each time here, and the shortcut has nothing to skip (812 searches against 182
-            // while first turns took them): the same joins, and no more searches.
-            assert!(seams[0] > 100, "{seams:?}");
-            assert!(seams[1] <= seams[0], "{seams:?}");
+            // The same joins with a fraction of the searches: 812 against 182 (while first
+            // turns took no seam joins, from `aad6ecc` until the offset spiral was lined, the
+            // first unreached loop searched had one each time, and the counts were equal).
+            assert!(seams[0] > 500, "{seams:?}");
+            assert!(4 * seams[1] < seams[0], "{seams:?}");
         });
     }
 }

@@ -60,8 +60,7 @@ impl OffsetSpiral {
         self.bridge_join(slice, w, false)
     }
 
-    /// A join across a seam: a loop no join reaches yet (not a first turn, which lies on its
-    /// feature's keep-out curve in that feature's material), to a reached loop of its own level
+    /// A join across a seam: a loop no join reaches yet, to a reached loop of its own level
     /// that runs within [`SEAM_ROADS`] road widths of it across a ridge (the turns of two
     /// channels of a lattice, side by side between them), by two bridges a road or half a
     /// road apart that cross the ridge square to it. Tried before relaxed joins, which reach
@@ -94,10 +93,6 @@ impl OffsetSpiral {
             // Of its level across a pinch, or the level below round a small loop at a peak of
             // `D` that no relaxed site reaches (the turn below runs more than a road off it).
             let near_level = |l: u16| l == lu.level || (!seam && l + 1 == lu.level);
-            // Not between first turns (`pinch_site`'s gaps).
-            if seam && lu.level == 0 {
-                continue;
-            }
             for v in 0..n {
                 let lv = &self.loops[v];
                 if !lv.visited()
@@ -232,15 +227,11 @@ impl OffsetSpiral {
             }
         }
         // The widest gap whose bridges fit: a full road apart they do not overlap at all,
-        // where the pocket leaves room for both.
-        // First turns lie on keep-out curves, each in its own feature's material: two bridges
-        // apart between two features' first turns lay moves from one curve to the other in
-        // a blend (random slice 30186: 0.016 off a feature's material on its curve). There
-        // the pinch join keeps to the narrowest gap, as before wider ones were tried.
+        // where the pocket leaves room for both. (Bridges between two features' first turns,
+        // which lie on the keep-out curves, blend from one feature's material to the other's
+        // only outside both linings: `toolpath::lining`.)
         let gaps = if seam {
             &PINCH_GAPS[..PINCH_GAPS.len() - 1]
-        } else if lu.level == 0 && lv.level == 0 {
-            &PINCH_GAPS[PINCH_GAPS.len() - 1..]
         } else {
             &PINCH_GAPS[..]
         };
