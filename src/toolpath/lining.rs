@@ -144,6 +144,35 @@ impl<'a, S: PathSink> Lining<'a, S> {
                     < self.edge())
     }
 
+    /// Where the move `a -> c` crosses the edge of feature `f`'s lining, leaving it (`leaving`:
+    /// `a` lies in it) or entering it (`c` does), where it needs a vertex there: the end in the
+    /// lining holds `f`'s material, the other end another, and that end was given the material
+    /// here (`recoloured`) or a piece but the one at it would end within the lining
+    /// ([`pieces_within`](Self::pieces_within); `d_in` and `d_out` the ends' distances from
+    /// `f`). (An arc's or an MCL's end on the keep-out curve, left straight across it, has only
+    /// its first piece there, which holds its material.) `None` where it needs none.
+    fn edge_vertex(
+        &self,
+        f: usize,
+        a: &Vertex,
+        c: &Vertex,
+        leaving: bool,
+        (d_in, d_out): (f32, f32),
+        recoloured: bool,
+    ) -> Option<f32> {
+        let (inside, outside) = if leaving { (a, c) } else { (c, a) };
+        let needed = inside.material == self.material(f)
+            && outside.material != inside.material
+            && (recoloured || self.pieces_within(f, inside, outside, d_in, d_out));
+        needed.then(|| {
+            if leaving {
+                self.crossing(f, a.at, c.at, 0.0, 1.0)
+            } else {
+                self.crossing(f, a.at, c.at, 1.0, 0.0)
+            }
+        })
+    }
+
     /// The vertex on the move `a -> b` at parameter `t`, in feature `f`'s material.
     fn put(&mut self, a: &Vertex, b: &Vertex, t: f32, f: usize) -> Result<(), Vertex> {
         let v = Vertex {
@@ -212,29 +241,17 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
             // The feature whose lining `a` lies in, if it does (then it was measured).
             let lining_a = fa.filter(|_| da < edge);
             match (lining_a, in_c) {
-                // Out of a lining in its material: blend from where the move leaves it, where
-                // `a` was given that material here or a piece but the first would end within
-                // the lining. (An arc's or an MCL's end on the keep-out curve, left straight
-                // across it, has only its first piece there, which holds its material.)
-                (Some(fa), false)
-                    if a.material == self.material(fa)
-                        && c.material != a.material
-                        && len > 0.0
-                        && (recoloured_a || self.pieces_within(fa, &a, &c, da, dc)) =>
-                {
-                    let t = self.crossing(fa, a.at, c.at, 0.0, 1.0);
-                    if t < 1.0 {
+                // Out of a lining in its material: blend from where the move leaves it.
+                (Some(fa), false) if len > 0.0 => {
+                    let leave = self.edge_vertex(fa, &a, &c, true, (da, dc), recoloured_a);
+                    if let Some(t) = leave.filter(|&t| t < 1.0) {
                         self.put(&a, &c, t, fa)?;
                     }
                 }
                 // Into a lining in its material: blend up to where the move enters it.
-                (None, true)
-                    if a.material != c.material
-                        && len > 0.0
-                        && (recoloured_c || self.pieces_within(fc, &c, &a, dc, da)) =>
-                {
-                    let t = self.crossing(fc, a.at, c.at, 1.0, 0.0);
-                    if t > 0.0 {
+                (None, true) if len > 0.0 => {
+                    let enter = self.edge_vertex(fc, &a, &c, false, (dc, da), recoloured_c);
+                    if let Some(t) = enter.filter(|&t| t > 0.0) {
                         self.put(&a, &c, t, fc)?;
                     }
                 }
@@ -255,10 +272,10 @@ impl<S: PathSink> PathSink for Lining<'_, S> {
                         self.slice.clearance_to(fa, c.at),
                     );
                     if a_from_c >= edge && c_from_a >= edge {
-                        let leave = (recoloured_a || self.pieces_within(fa, &a, &c, da, c_from_a))
-                            .then(|| self.crossing(fa, a.at, c.at, 0.0, 1.0));
-                        let enter = (recoloured_c || self.pieces_within(fc, &c, &a, dc, a_from_c))
-                            .then(|| self.crossing(fc, a.at, c.at, 1.0, 0.0));
+                        let leave =
+                            self.edge_vertex(fa, &a, &c, true, (da, c_from_a), recoloured_a);
+                        let enter =
+                            self.edge_vertex(fc, &a, &c, false, (dc, a_from_c), recoloured_c);
                         // Only where the move leaves the one before it enters the other.
                         let (t1, t2) = (leave.unwrap_or(0.0), enter.unwrap_or(1.0));
                         if t1 < t2 {
