@@ -108,7 +108,8 @@ fn default_layers_meet_the_bar_on_every_reference_slice() {
 /// starts a tenth of the narrowest road apart (more MCLs, more of them turning short), it
 /// splices 32 and doubles 0.013 (coverage 0.9925). Since pairs turn short from half a road
 /// out, not a road (45 pairs turn short, 39 before), it doubles 0.0144 (0.0133; coverage
-/// 0.9921).
+/// 0.9921); since the MCLs beside a pair may be a whole widest road apart within three roads of
+/// the hole (68 pairs), 0.0123, covering 0.98996.
 #[test]
 fn a_splices_outer_arc_leaves_the_mcls_into_the_inner_arc_their_ground() {
     let slice = slice_file::parse(REFERENCE_SLICES[0].1).unwrap().slice;
@@ -116,8 +117,8 @@ fn a_splices_outer_arc_leaves_the_mcls_into_the_inner_arc_their_ground() {
     let what = format!("{} ({}): {m:?}", m.pattern, l.note);
     println!("{what}");
     assert!(l.note.contains("splicing 32 loops"), "{what}");
-    assert!(m.overfill <= 0.015, "{what}");
-    assert!(m.coverage >= 0.99, "{what}");
+    assert!(m.overfill <= 0.013, "{what}");
+    assert!(m.coverage >= 0.989, "{what}");
 }
 
 #[test]
