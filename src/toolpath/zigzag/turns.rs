@@ -17,9 +17,9 @@
 //! ([`min_width`](crate::Settings::min_width)) and the two MCLs beside it are at most three
 //! quarters of the widest road apart ([`max_width`](crate::Settings::max_width),
 //! [`SPAN_PER_MAX_WIDTH`]; a whole widest road within three roads of the hole,
-//! [`SPAN_NEAR_PER_MAX_WIDTH`]), so their roads fill what the pair leaves; it turns short only
-//! if that is at least half a road out. A splice's inner pair may turn short too: the outer arc then
-//! runs alone along the curve beneath it.
+//! [`SPAN_NEAR_PER_MAX_WIDTH`]), so their roads fill what the pair leaves; the walk starts half
+//! a road out ([`MIN_TURN_ROADS`]). A splice's inner pair may turn short too: the outer arc
+//! then runs alone along the curve beneath it.
 //!
 //! The pairs are taken in two passes. In the first, the MCLs beside a pair must reach the hole:
 //! of two neighbouring pairs only one turns short, each measured against MCLs laid whole. In
@@ -58,15 +58,16 @@ const STEP_PER_ROAD: f32 = 0.25;
 /// crowded stretch (a fan that parts them so slowly leaves a wedge wider than a road between
 /// the MCLs beside it long before).
 const MAX_TURN_ROADS: f32 = 12.0;
-/// How far out from the hole, in road widths, a pair must turn to turn short at all (a turn
-/// nearer lays about what the arc would). On the random bench's first 40 slices, before the
-/// other changes that came with the turns, half a road, one and two roads met the bar on 35, 34
-/// and 35 (coverage within 0.0002, overfill 0.0263 / 0.0263 / 0.0272 on average). With every
-/// later change in, half a road rather than one: on seed 1's 200 mean coverage 0.9865 ->
-/// 0.9862 and overfill 0.0256 -> 0.0250 (no slice's overfill up by more than 0.0015), 794 ->
-/// 795 of seeds 1, 5000, 9000 and 20000 meeting the bar; on the 48 lattices, whose small
-/// channels crowd 16 to 20 MCL ends on their curves, overfill 0.0377 -> 0.0351 (none higher),
-/// 29 -> 31.
+/// How far out from the hole, in road widths, a pair's walk starts: the nearest it turns
+/// short (a turn nearer lays about what the arc would). On the random bench's first 40 slices,
+/// before the other changes that came with the turns, half a road, one and two roads met the
+/// bar on 35, 34 and 35 (coverage within 0.0002, overfill 0.0263 / 0.0263 / 0.0272 on
+/// average). With every later change in, half a road rather than one: on seed 1's 200 mean
+/// coverage 0.9865 -> 0.9862 and overfill 0.0256 -> 0.0250 (no slice's overfill up by more
+/// than 0.0015), 794 -> 795 of seeds 1, 5000, 9000 and 20000 meeting the bar; on the 48
+/// lattices, whose small channels crowd 16 to 20 MCL ends on their curves, overfill 0.0377 ->
+/// 0.0351 (none higher), 29 -> 31. (It was a bound on where the walk, which started half a
+/// road out, ended; at half a road that bound held always, so the walk starts there instead.)
 const MIN_TURN_ROADS: f32 = 0.5;
 /// How far apart, in widest roads, the MCLs beside a pair may be where it turns short. Their
 /// roads each fill their half of it, each as wide as its band up to the widest road, but
@@ -237,7 +238,7 @@ fn turn(
         })
     };
     let step = STEP_PER_ROAD * w;
-    let mut s = 2.0 * step;
+    let mut s = MIN_TURN_ROADS * w;
     // The farthest level so far at which the MCLs beside the pair fill what it leaves.
     let mut last = None;
     while s <= most {
@@ -259,7 +260,7 @@ fn turn(
         last = Some(s);
         s += step;
     }
-    last.filter(|&s| s >= MIN_TURN_ROADS * w)
+    last
 }
 
 #[cfg(test)]
