@@ -102,16 +102,23 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
     // simplification tolerance. A road is a road width wide, or wider (up to the slice's
     // widest) where it widens into the sliver before a ridge and its centre moves out by half
     // the excess, or narrower (down to the slice's narrowest) where the same level's turn
-    // beyond a ridge lies nearer than a road.
+    // beyond a ridge lies nearer than a road. The exception: a bridge between two turns
+    // narrower than the loops it joins (as wide as its twin lies apart) narrows a short way
+    // out from each loop, at a vertex between the turns (the moves into and out of it run
+    // across the turns, toward the next one).
+    let distance = |p: hollowpath::geometry::Point| {
+        slice
+            .holes()
+            .iter()
+            .map(|h| h.signed_distance(p))
+            .fold(-slice.wall().signed_distance(p), f32::min)
+    };
     let mut used = std::collections::BTreeSet::new();
     let mut widened = 0;
     let mut strays = 0;
+    let mut tapers = 0;
     for (i, v) in path.iter().enumerate() {
-        let d = slice
-            .holes()
-            .iter()
-            .map(|h| h.signed_distance(v.at))
-            .fold(-slice.wall().signed_distance(v.at), f32::min);
+        let d = distance(v.at);
         assert!(
             v.width >= slice.settings().min_width - 1e-6
                 && v.width <= slice.settings().max_width + 1e-6,
@@ -119,6 +126,13 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
             v.width
         );
         widened += usize::from(v.width > w);
+        if i > 0 && i + 1 < path.len() && v.width < w {
+            let (before, after) = (distance(path[i - 1].at), distance(path[i + 1].at));
+            if (before - d) * (d - after) > 0.0 && (before - after).abs() > 0.5 * w {
+                tapers += 1;
+                continue;
+            }
+        }
         let inner = d - 0.5 * v.width;
         let k = ((inner - 3e-3) / w).round();
         let off = inner - (3e-3 + k * w);
@@ -140,8 +154,14 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
         path.len()
     );
     // Where the holes' turns meet the wall's and each other's, the ridges leave slivers
-    // narrower than a road, and roads widen into them.
+    // narrower than a road, and roads widen into them; some joins cut gaps shorter than a
+    // road, and their bridges narrow.
     assert!(widened > 0);
+    assert!(
+        tapers > 0 && tapers * 50 <= path.len(),
+        "{tapers} of {}",
+        path.len()
+    );
     // Every level from the first is laid (the top one may hold only loops too small to turn
     // in, which are left out).
     let n = used.len() as i32;

@@ -307,6 +307,23 @@ fn the_offset_spiral_covers_lattices_of_channels_across_their_seams() {
     }
 }
 
+/// Lattices whose offset spirals missed the bar in one road. On coverage (lattices 5, 35, 40
+/// and 42: 0.960-0.968): where three or four cells meet, each side's widened road was held off
+/// the corner by the other seams, and a star of bare ground stayed in every pocket. On
+/// overfill (25, 29 and 41: 0.041-0.073): the two bridges of a join were laid as wide as the
+/// widened turns they leave, a road apart, each over the other; and a turn widened to the
+/// seam over the arms of a pocket's small loop, a lens laid twice on each side of each arm.
+/// A join's bridges are laid as wide as they lie apart now (`toolpath::offset::walk`), a
+/// widened road may reach a little past the seam (`SEAM_CROSS`) and lay at most half its
+/// widening over the next level's turn across it (`NEXT_TURN_OVERLAP`): all seven meet the
+/// bar, coverage 0.971-0.980, overfill 0.011-0.029.
+#[test]
+fn the_offset_spiral_fills_the_pockets_of_lattices_and_lays_bridges_side_by_side() {
+    for (m, _, what) in lattice_layers(&[5, 25, 29, 35, 40, 41, 42], 1) {
+        one_road_at_the_bar(&m, &what, 0.03);
+    }
+}
+
 /// A join across a seam between two features' first turns (which lie on their keep-out
 /// curves, each in its own feature's material) laid a move 0.016 off a feature's material on
 /// its curve (random slice 30186, 30 holes, from a seed never used to tune anything); and a

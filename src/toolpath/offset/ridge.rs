@@ -3,8 +3,8 @@
 //! lies nearer than a road.
 
 use super::{
-    nearest, EDGE_DIRECTIONS, FIRST_TURN_MARGIN, LAID_TOL, RIDGE_MARGIN, RIDGE_STEPS,
-    RIDGE_TOL_PER_ROAD, WIDEN_TRIES,
+    nearest, EDGE_DIRECTIONS, FIRST_TURN_MARGIN, LAID_TOL, NEXT_TURN_OVERLAP, RIDGE_MARGIN,
+    RIDGE_STEPS, RIDGE_TOL_PER_ROAD, SEAM_CROSS, WIDEN_TRIES,
 };
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, Point};
@@ -165,21 +165,24 @@ pub(super) fn widened(
     // The next turn crosses the ray a road width out: widen only if it was left out, and
     // only as far as the widened road keeps off every laid piece of that turn (near a corner
     // of the next turn, where it meets another feature's turn at the ridge, the traced turn
-    // cuts the corner and passes the ray's point at a distance).
-    let next = if ridge >= w {
-        let level = turn_level(d, w) + 1;
-        if laid(p + n * w, level, LAID_TOL * w) {
-            return (p, w);
-        }
-        Some(level)
-    } else {
-        None
-    };
+    // cuts the corner and passes the ray's point at a distance). Where the ridge is nearer,
+    // no turn of this feature's lies beyond, but another feature's turn of the next level may
+    // reach across the ridge (the small loop round a pocket where three or four cells meet,
+    // whose arms run out along the seams): the widened road may lay at most
+    // [`NEXT_TURN_OVERLAP`] of its widening over that turn's road.
+    let level = turn_level(d, w) + 1;
+    let beyond = ridge >= w;
+    if beyond && laid(p + n * w, level, LAID_TOL * w) {
+        return (p, w);
+    }
+    let overlap = if beyond { 0.0 } else { NEXT_TURN_OVERLAP };
     // Where the ridge bends toward the road (near a corner where two features' turns meet),
     // the widened road's round edge would cross it sideways onto the other side's road:
-    // widen less, or not at all.
+    // widen less, or not at all. By at most [`SEAM_CROSS`], it may (the other side's road
+    // stops short of the same corner).
     // The same across the feature's own ridges ([`OWN_SIDE`]).
-    // No feature is nearer `q` than its own (of equal distances, either counts).
+    // No feature is nearer `q` than its own by more than that (of equal distances, either
+    // counts).
     let in_cell = |q: Point| {
         let (nearest, d, near) = slice.nearest_feature(q);
         if nearest == own {
@@ -189,12 +192,12 @@ pub(super) fn widened(
             let grad = slice.clearance_gradient(own, &near, q);
             grad.dot(n) >= OWN_SIDE * grad.norm()
         } else {
-            d >= slice.clearance_to(own, q)
+            d + SEAM_CROSS * w >= slice.clearance_to(own, q)
         }
     };
     let fits = |g: f32| {
         let (c, r) = (p + n * (0.5 * g), 0.5 * (w + g));
-        next.is_none_or(|level| !laid(c, level, r + 0.5 * w))
+        !laid(c, level, r + 0.5 * w - overlap * g)
             && EDGE_DIRECTIONS
                 .iter()
                 .all(|&(x, y)| in_cell(c + Point::new(x, y) * r))

@@ -4,15 +4,30 @@
 
 use super::ridge::widened;
 use super::{
-    capacity, nearest, wrap, Frame, OffsetSpiral, OffsetStats, FIRST_TURN_MARGIN, NONE, WIDTH_STEP,
+    capacity, nearest, wrap, Frame, OffsetSpiral, OffsetStats, BRIDGE_TAPER, FIRST_TURN_MARGIN,
+    NONE, WIDTH_STEP,
 };
 use crate::config::MAX_LOOPS;
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polygon, Point};
+use crate::slice::Material;
 use crate::toolpath::composition::BlendedField;
+use crate::toolpath::moves::WIDTH_TOLERANCE;
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Limit, Plan, Slice};
 use heapless::Vec;
+
+/// The composition at `p` (whose nearest feature is `near`, at distance `d`): the plan's
+/// blended field, but exactly the feature's own material on its first turn.
+fn material(slice: &Slice, field: &BlendedField, p: Point, near: usize, d: f32) -> Material {
+    let half = 0.5 * slice.settings().road_width;
+    let own = slice.material_at(near);
+    if d < half + 2.0 * FIRST_TURN_MARGIN {
+        own
+    } else {
+        field.at(p).unwrap_or(own)
+    }
+}
 
 impl OffsetSpiral {
     /// Whether a laid loop of level `level` passes within `tol` of `q`.
@@ -55,18 +70,11 @@ impl OffsetSpiral {
         p: Point,
         deposit: bool,
     ) -> Vertex {
-        let half = 0.5 * slice.settings().road_width;
         let near = nearest(slice, p);
-        let own = slice.material_at(near.0);
-        let material = if near.1 < half + 2.0 * FIRST_TURN_MARGIN {
-            own
-        } else {
-            field.at(p).unwrap_or(own)
-        };
         let (at, width) = self.widen(slice, p, near);
         Vertex {
             at,
-            material,
+            material: material(slice, field, p, near.0, near.1),
             width,
             deposit,
         }
@@ -88,6 +96,62 @@ impl OffsetSpiral {
         } else {
             v
         }
+    }
+
+    /// Emits a bridge of join `site` to `p`: [`bridge_vertex`](Self::bridge_vertex)'s road,
+    /// laid [`bridge_width`](Self::bridge_width) wide between its ends. Each end keeps the
+    /// width of the loop it leaves or enters, and the road narrows to the bridge's width over
+    /// the first and widens back over the last [`BRIDGE_TAPER`] of it: the loops' round ends
+    /// still cover the corners beside the gap, and the two bridges of a join do not lie on
+    /// each other between them.
+    fn emit_bridge(
+        &self,
+        slice: &Slice,
+        field: &BlendedField,
+        sink: &mut impl PathSink,
+        site: usize,
+        p: Point,
+    ) -> Result<(), Error> {
+        let end = self.bridge_vertex(slice, field, p);
+        let width = self.bridge_width(slice, site);
+        if let Some(from) = sink.last_vertex().filter(|v| v.deposit) {
+            let len = from.at.dist(end.at);
+            let taper = (BRIDGE_TAPER * width).fmin(0.25 * len);
+            let inner = |q: Point| {
+                let (f, d, _) = slice.nearest_feature(q);
+                Vertex {
+                    at: q,
+                    material: material(slice, field, q, f, d),
+                    width,
+                    deposit: true,
+                }
+            };
+            // A width within a printer's tolerance of the bridge's is laid as it is.
+            let wider = |v: f32| taper > 0.0 && v > width * (1.0 + WIDTH_TOLERANCE);
+            if wider(from.width) {
+                emit_move(slice, sink, inner(from.at.lerp(end.at, taper / len)))?;
+            }
+            if wider(end.width) {
+                emit_move(slice, sink, inner(end.at.lerp(from.at, taper / len)))?;
+            }
+        }
+        emit_move(slice, sink, end)
+    }
+
+    /// How wide the two bridges of join `site` are laid between their ends: as wide as they
+    /// lie apart (the chord of its gaps), so that together they fill the gap between the two
+    /// loops side by side without laying any of it twice; where they lie less than half a road
+    /// apart (a join across a pinch), so wide that the two together span a road. Never
+    /// narrower than [`min_width`](crate::Settings::min_width). A bridge laid at the width of
+    /// a widened turn (a turn beside a ridge, a seam between two features' turns) or a full
+    /// road where the gap is tighter lies that much over its twin.
+    fn bridge_width(&self, slice: &Slice, site: usize) -> f32 {
+        let st = &self.sites[site];
+        let (a, b) = (st.a as usize, st.b as usize);
+        let chord = |l: usize, s1: f32, s2: f32| self.at(l, s1).dist(self.at(l, s2));
+        let apart = chord(a, st.a1, st.a2).fmin(chord(b, st.b1, st.b2));
+        let w = slice.settings().road_width;
+        apart.fmax(w - apart).fmax(slice.settings().min_width)
     }
 
     /// Walks loop `l` from arc length `s` for `dist` in the given direction, emitting the
@@ -258,11 +322,7 @@ impl OffsetSpiral {
                             f.remaining -= ahead + gap;
                         }
                         // The bridge across.
-                        emit_move(
-                            slice,
-                            sink,
-                            self.bridge_vertex(slice, &field, self.at(child, enter)),
-                        )?;
+                        self.emit_bridge(slice, &field, sink, si, self.at(child, enter))?;
                         self.stack
                             .push(Frame {
                                 lp: child as u16,
@@ -279,7 +339,7 @@ impl OffsetSpiral {
                         // The bridge back.
                         if let Some(f) = self.stack.last() {
                             let p = self.at(f.lp as usize, f.pos);
-                            emit_move(slice, sink, self.bridge_vertex(slice, &field, p))?;
+                            self.emit_bridge(slice, &field, sink, top.entered_by as usize, p)?;
                         }
                     }
                 }
