@@ -155,10 +155,11 @@ fn offset_spiral_is_one_road_of_turns_a_road_width_apart() {
     );
     // Where the holes' turns meet the wall's and each other's, the ridges leave slivers
     // narrower than a road, and roads widen into them; some joins cut gaps shorter than a
-    // road, and their bridges narrow.
+    // road, and their bridges narrow (8 such vertices of 3 587): as rare as the strays, or
+    // the exception would excuse a turn's vertices that stray.
     assert!(widened > 0);
     assert!(
-        tapers > 0 && tapers * 50 <= path.len(),
+        tapers > 0 && tapers * 200 <= path.len(),
         "{tapers} of {}",
         path.len()
     );

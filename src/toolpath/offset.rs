@@ -346,7 +346,8 @@ const WIDEN_TRIES: u32 = 3;
 /// four cells meet, each side's widened road is held off the corner by the other ridges, and
 /// the pocket between them stayed bare, a star with arms along the seams; a little past the
 /// ridge, the roads reach into the other sides' bare arms. On the 48 lattices of channels,
-/// with [`NEXT_TURN_OVERLAP`], mean coverage 0.9772 -> 0.9805 (6 lattices below 0.97 -> none)
+/// with [`NEXT_TURN_OVERLAP`] and against the bridges' change alone
+/// ([`OffsetSpiral::bridge_width`]), mean coverage 0.9772 -> 0.9805 (6 lattices below 0.97 -> none)
 /// and overfill 0.0185 -> 0.0125 (every lattice's spiral meets the bar); on the random
 /// bench's seeds 1 and 5000 coverage 0.9889 -> 0.9893 and 0.9893 -> 0.9896, overfill
 /// 0.0149 -> 0.0088 and 0.0146 -> 0.0086. Without [`NEXT_TURN_OVERLAP`], 0.05 took the
