@@ -346,6 +346,20 @@ fn the_offset_spiral_keeps_seam_joins_off_the_keep_out_curves() {
     }
 }
 
+/// Between two of an MCL's vertices the zigzag's road is one move at one width. Moves up to two
+/// roads long took no vertex at the meander samples between, so beside the tip of a pair that
+/// turns short of a hole, where the band widens between two vertices and narrows again, a
+/// wedge of it stayed bare: lattice 6 (0.25 mm roads) and random slice 20156 missed the bar
+/// on coverage (0.9691, 0.9693). A sample a quarter road from a move's ends takes a vertex at
+/// its band's width now (`toolpath::meander::SAMPLE_GAP`): both meet the bar.
+#[test]
+fn the_zigzag_follows_its_band_between_vertices_beside_short_turns() {
+    for (m, _, what) in lattice_layers(&[6], 0) {
+        one_road_at_the_bar(&m, &what, 0.04);
+    }
+    zigzag_meets_the_bar(20156);
+}
+
 /// Where a fan's band stays too wide for one road for a long way (two holes in a 41 mm wall at
 /// 0.5 mm roads, two in a 15 mm one at 0.25 mm), its meander of strokes across the band turned twice a road, and the four
 /// round corners where the turns of two neighbouring meanders meet left a star of bare ground
