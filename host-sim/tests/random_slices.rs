@@ -354,7 +354,9 @@ fn the_offset_spiral_keeps_seam_joins_off_the_keep_out_curves() {
 /// its band's width now (`toolpath::meander::SAMPLE_GAP`): both meet the bar.
 #[test]
 fn the_zigzag_follows_its_band_between_vertices_beside_short_turns() {
-    for (m, _, what) in lattice_layers(&[6], 0) {
+    let lattice = lattice_layers(&[6], 0);
+    assert_eq!(lattice.len(), 1, "lattice 6 is drawn");
+    for (m, _, what) in lattice {
         one_road_at_the_bar(&m, &what, 0.04);
     }
     zigzag_meets_the_bar(20156);

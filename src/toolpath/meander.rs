@@ -6,7 +6,7 @@
 use crate::geometry::primitives::MinMax;
 use crate::geometry::{polyline, Point};
 use crate::toolpath::composition::along;
-use crate::toolpath::zigzag::EDGE_MARGIN;
+use crate::toolpath::zigzag::{EDGE_MARGIN, END_STEPS};
 use crate::toolpath::{emit_move, PathSink, Vertex};
 use crate::{Error, Plan, Slice};
 
@@ -154,11 +154,19 @@ pub(super) fn meander(
             ends = stroke_ends(slice, q, part, band, fan);
         }
         state.in_meander = stroke(slice, (q, dir), ends, part, material, fan, state, sink)?;
-        // Along a move longer than half a road (a straight stretch of MCL, along which the
-        // fan parts or crowds) the road follows its band at every sample, a road apart, not
-        // only at the MCL's vertices: each move is laid at one width.
-        let clear = |x: f32| (s - x).abs() >= SAMPLE_GAP * w;
-        if !state.in_meander && clear(sa) && clear(sb) && clear(0.0) && clear(len) {
+        // Along a move, where no meander runs, the road takes its band's width and place at
+        // each sample (a road apart) at least `SAMPLE_GAP` roads from the move's ends, not only
+        // at the MCL's vertices: each move is laid at one width. Near the MCL's own ends the
+        // road's extra stops stand (`zigzag::END_STEPS`, emitted before and after the
+        // meander's): a sample among them would lay the road back along itself.
+        let clear = |x: f32, roads: f32| (s - x).abs() >= roads * w;
+        let ends = END_STEPS[END_STEPS.len() - 1];
+        if !state.in_meander
+            && clear(sa, SAMPLE_GAP)
+            && clear(sb, SAMPLE_GAP)
+            && clear(0.0, ends)
+            && clear(len, ends)
+        {
             let (at, width) = road_at(slice, fan, q, false, raw);
             emit_move(
                 slice,

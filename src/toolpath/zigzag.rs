@@ -76,8 +76,10 @@ const _: () = assert!(CURVES <= u8::MAX as usize);
 pub(super) const EDGE_MARGIN: f32 = 3e-3;
 /// Where the first and the last move of an MCL get extra vertices, road widths from its end:
 /// the road narrows to a road width at a keep-out curve but may be wider just off it, so the
-/// width follows the clearance there instead of tapering over the whole move.
-const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
+/// width follows the clearance there instead of tapering over the whole move. A meander
+/// sample takes a vertex of its own only beyond the last of them (`meander`), so the road's
+/// vertices stay in order along the MCL.
+pub(super) const END_STEPS: [f32; 3] = [0.25, 0.5, 1.0];
 pub(super) const NONE: u16 = u16::MAX;
 /// Up to this many curves with an even number of ends, every combination of their pairings
 /// is tried (every slice of up to 8 holes); beyond, pairings are improved one curve at a time.
