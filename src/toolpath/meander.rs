@@ -156,16 +156,14 @@ pub(super) fn meander(
         state.in_meander = stroke(slice, (q, dir), ends, part, material, fan, state, sink)?;
         // Along a move, where no meander runs, the road takes its band's width and place at
         // each sample (a road apart) at least `SAMPLE_GAP` roads from the move's ends, not only
-        // at the MCL's vertices: each move is laid at one width. Near the MCL's own ends the
-        // road's extra stops stand (`zigzag::END_STEPS`, emitted before and after the
-        // meander's): a sample among them would lay the road back along itself.
+        // at the MCL's vertices: each move is laid at one width. Near the MCL's own ends its
+        // extra stops stand instead (`END_REACH`).
         let clear = |x: f32, roads: f32| (s - x).abs() >= roads * w;
-        let ends = END_STEPS[END_STEPS.len() - 1];
         if !state.in_meander
             && clear(sa, SAMPLE_GAP)
             && clear(sb, SAMPLE_GAP)
-            && clear(0.0, ends)
-            && clear(len, ends)
+            && clear(0.0, END_REACH)
+            && clear(len, END_REACH)
         {
             let (at, width) = road_at(slice, fan, q, false, raw);
             emit_move(
@@ -195,8 +193,9 @@ pub(super) fn meander(
 const MIN_STROKES: i32 = 3;
 
 /// How far, in road widths, a meander sample must lie from the ends of the MCL's move it falls
-/// on (the MCL's vertices, where the road already takes its band's width) and from the MCL's
-/// ends for the road to take a vertex of its own there, where no meander runs. A move laid
+/// on (the MCL's vertices, where the road already takes its band's width) for the road to take
+/// a vertex of its own there, where no meander runs (and beyond [`END_REACH`] of the MCL's own
+/// ends). A move laid
 /// between two vertices is one width; where the band widens and narrows again between them
 /// (beside the tip of a pair that turns short of a hole, past a crowded end) the move was
 /// laid at its ends' narrower width and left a wedge of the band bare. At a whole road
@@ -206,8 +205,14 @@ const MIN_STROKES: i32 = 3;
 /// 200 / 198 / 199 / 198 and 38 lattices; 0.5: each coverage 0.0003-0.0004 higher and each
 /// overfill 0.0004-0.0005 lower, 200 / 199 / 199 / 198 and 38; 0.25: 0.9848 / 0.0212, 0.9851
 /// / 0.0201, 0.9850 / 0.0207, 0.9846 / 0.0210, 200 / 199 / 199 / 199 and 40. Nearer a vertex
-/// than a quarter road a sample's band is nearly the vertex's.
+/// than a quarter road a sample's band is nearly the vertex's. (The figures are from a first
+/// form that kept samples a quarter road from the MCL's ends too; with [`END_REACH`] they
+/// are the same to the fourth decimal.)
 const SAMPLE_GAP: f32 = 0.25;
+/// How far from an MCL's own ends, in road widths, a sample must lie to take a vertex: beyond
+/// the road's extra stops there ([`END_STEPS`], laid before and after the meander's samples),
+/// or the road would step back along itself.
+const END_REACH: f32 = END_STEPS[END_STEPS.len() - 1];
 
 /// The samples a meander's strokes stand on along one MCL: `count` of them `spacing` apart,
 /// the `k`-th at arc length `offset + k spacing` from the MCL's `from` end.

@@ -95,7 +95,10 @@ const STRICT_TOL: f32 = 0.05;
 /// the worst 0.092 -> 0.073; the random bench's 0.0159 -> 0.0156, coverage unchanged).
 const BRIDGE_GAPS: [f32; 3] = [1.0, 0.75, 0.5];
 /// Over how much of its own width a bridge narrows from the loop it leaves to its width
-/// between the loops, and widens again to the loop it enters ([`OffsetSpiral::emit_bridge`]).
+/// between the loops, and widens again to the loop it enters ([`OffsetSpiral::emit_bridge`]),
+/// at most a quarter of the bridge's length. Hardly a choice: 0.25, 0.5 and 1.0 gave the same
+/// offset-spiral means to the fourth decimal on the 48 lattices (coverage 0.9805, overfill
+/// 0.0125) and on the random bench's seed 1 (0.9893, 0.0088).
 const BRIDGE_TAPER: f32 = 0.5;
 /// Rounds of marking crowded loops [`tight`](Loop::tight) before half-road gaps everywhere
 /// are tried ([`OffsetSpiral::join`]): each round marks the loops around the roads still
